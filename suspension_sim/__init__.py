@@ -1,0 +1,26 @@
+"""suspension_sim: an active-suspension testbed on MuJoCo.
+
+Data flows one way: scenario file -> validated config (:mod:`.config`) -> MuJoCo model (:mod:`.plant`)
+-> simulation loop (:mod:`.simulation`: road, effects, actuator, sensors, controller) -> log
+(:mod:`.results`) -> metrics, plots, 3D.
+"""
+import os as _os
+
+# dm_control imports a rendering backend on import; the simulator renders nothing itself.
+_os.environ.setdefault("MUJOCO_GL", "egl")
+
+__version__ = "0.1.0"
+
+from .config import Scenario, load_scenario  # noqa: E402
+from .errors import ScenarioError, SimulationDiverged  # noqa: E402
+
+
+def simulate(scenario, **kwargs):
+    """Simulate a scenario (a :class:`Scenario`, a path, or a list of structurally equal scenarios run as
+    one ensemble). Returns a :class:`~suspension_sim.results.Result` (or a list for a list)."""
+    from .simulation import simulate as _simulate
+
+    return _simulate(scenario, **kwargs)
+
+
+__all__ = ["Scenario", "load_scenario", "simulate", "ScenarioError", "SimulationDiverged", "__version__"]

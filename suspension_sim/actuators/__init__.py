@@ -1,0 +1,1 @@
+"""Actuator models between the controller's command and the force on the suspension (one file each)."""

@@ -1,0 +1,62 @@
+"""Ideal force actuator with the usual non-idealities: pure delay, first-order lag, rate limit and
+saturation (applied in that order to the commanded force)."""
+from __future__ import annotations
+
+import numpy as np
+from pydantic import Field
+
+from ..components import Params
+from ..registry import ACTUATORS
+from .base import Actuator
+
+
+class IdealParams(Params):
+    max_force: float | None = Field(None, gt=0, description="saturation |F| <= max_force (N); none = unlimited")
+    rate_limit: float | None = Field(None, gt=0, description="|dF/dt| limit (N/s); none = unlimited")
+    time_constant: float = Field(0.0, ge=0, description="first-order lag time constant (s); 0 = none")
+    delay: float = Field(0.0, ge=0, description="pure delay (s), rounded to physics steps")
+
+
+@ACTUATORS.register("ideal")
+class IdealActuator(Actuator):
+    """Force actuator: delay -> first-order lag -> rate limit -> saturation. Command = force demand (N).
+
+    With no delay, lag, rate limit or saturation the force equals the command.  The lag is the exact
+    zero-order-hold discretisation of dF/dt = (u − F)/τ over one physics step."""
+
+    Params = IdealParams
+    command_unit = "N"
+
+    def reset(self):
+        n, c = self.ctx.n_cars, self.ctx.n_corners
+        self.F = np.zeros((n, c))
+        self.n_delay = int(round(float(np.max(self.p.delay)) / self.ctx.dt))
+        self._line = np.zeros((self.n_delay + 1, n, c))
+        self._head = 0
+        tau = np.asarray(self.p.time_constant, dtype=float)
+        self.lag = bool(np.any(tau > 0))
+        self._a = np.where(tau > 0, np.exp(-self.ctx.dt / np.maximum(tau, 1e-300)), 0.0)
+        self.rate = self.p.rate_limit is not None
+        self.sat = self.p.max_force is not None
+
+    def force(self, command, travel, travel_rate, t):
+        u = command
+        if self.n_delay:
+            self._line[self._head] = command
+            self._head = (self._head + 1) % (self.n_delay + 1)
+            u = self._line[self._head]
+        if self.lag:
+            u = self._a * self.F + (1 - self._a) * u
+        if self.rate:
+            dmax = self.p.rate_limit * self.ctx.dt
+            u = self.F + np.clip(u - self.F, -dmax, dmax)
+        if self.sat:
+            u = np.clip(u, -self.p.max_force, self.p.max_force)
+        self.F = np.broadcast_to(np.asarray(u, dtype=float), self.F.shape).copy()
+        return self.F
+
+    def advance(self, command, travel, travel_rate, t, dt):
+        pass
+
+    def states(self):
+        return {"force": self.F}

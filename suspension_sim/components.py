@@ -1,0 +1,83 @@
+"""Common plumbing of pluggable components (effects, roads, actuators, controllers, sensors).
+
+Every component class declares its parameters as a pydantic model ``Params`` (defaults, units in the
+field descriptions, bounds).  Scenario values are validated against it, so a bad value gives a one-line
+error naming the field.
+
+Components are vectorised over an *ensemble* of cars (a single run is an ensemble of one).  The parameters
+of the cars are stacked by :func:`stack_params`: a scalar becomes an array of shape ``(n_cars, 1)`` and a
+per-corner list an array ``(n_cars, n_corners)``, so both broadcast against corner arrays of shape
+``(n_cars, n_corners)``.
+"""
+from __future__ import annotations
+
+from types import SimpleNamespace
+from typing import Any, Iterable
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, ValidationError
+
+from .errors import ScenarioError
+
+
+class NoParams(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class Params(BaseModel):
+    """Base for component parameter models: unknown keys are errors."""
+
+    model_config = ConfigDict(extra="forbid", arbitrary_types_allowed=True)
+
+
+def format_validation_error(err: ValidationError, prefix: str = "") -> tuple[str, str]:
+    """(field path, message) of the first error of a pydantic ValidationError."""
+    e = err.errors()[0]
+    loc = ".".join(str(p) for p in e.get("loc", ()) if p != "__root__")
+    field = ".".join(p for p in (prefix, loc) if p)
+    msg = e.get("msg", "invalid value")
+    if e.get("type") == "extra_forbidden":
+        msg = "unknown key"
+    elif e.get("type") == "missing":
+        msg = "required field is missing"
+    else:
+        inp = e.get("input")
+        if inp is not None and not isinstance(inp, (dict, list)):
+            msg = f"{msg} (got {inp!r})"
+    return field, msg
+
+
+def validate_params(model: type[BaseModel], raw: dict | None, field: str, source: str | None = None) -> BaseModel:
+    try:
+        return model.model_validate(raw or {})
+    except ValidationError as err:
+        f, msg = format_validation_error(err, field)
+        raise ScenarioError(msg, source=source, field=f) from None
+
+
+def stack_params(params: Iterable[BaseModel], n_corners: int) -> SimpleNamespace:
+    """Stack the validated parameters of each car into arrays (see module docstring)."""
+    params = list(params)
+    out: dict[str, Any] = {}
+    if not params:
+        return SimpleNamespace()
+    for key in type(params[0]).model_fields:
+        vals = [getattr(p, key) for p in params]
+        v0 = vals[0]
+        if isinstance(v0, bool) or v0 is None or isinstance(v0, str):
+            out[key] = v0 if all(v == v0 for v in vals) else vals
+        elif isinstance(v0, (int, float)):
+            out[key] = np.asarray(vals, dtype=float).reshape(-1, 1)
+        elif isinstance(v0, (list, tuple)) and v0 and all(isinstance(x, (int, float)) for x in v0) and len(v0) == n_corners:
+            out[key] = np.asarray(vals, dtype=float).reshape(len(vals), n_corners)
+        else:
+            out[key] = v0 if all(v == v0 for v in vals) else vals
+    return SimpleNamespace(**out)
+
+
+def scalar(value) -> float:
+    """The single value of a stacked parameter (for quantities that must be equal over the ensemble)."""
+    a = np.asarray(value, dtype=float)
+    if a.size and not np.all(a == a.flat[0]):
+        raise ValueError("parameter differs across the ensemble where one value is required")
+    return float(a.flat[0])

@@ -1,0 +1,1 @@
+"""Plant effects: nonlinear force elements added per suspension corner (one file each)."""

@@ -1,0 +1,1 @@
+"""Metrics computed from a run's log (one file each)."""

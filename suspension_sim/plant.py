@@ -1,0 +1,151 @@
+"""The MuJoCo plant: one MjModel holding an *ensemble* of independent cars (a single run is an ensemble of
+one), with index maps that turn MuJoCo's flat arrays into ``(n_cars, n_corners)`` views.
+
+Each car is its vehicle's MJCF (parameters applied, equilibrium preloads set) attached with
+``dm_control.mjcf`` under the namespace ``car{i}/`` and offset sideways, so the cars never interact (no
+contacts; every force element is a tendon within one car).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+from dm_control import mjcf
+
+from .components import validate_params
+from .errors import ScenarioError
+from .registry import VEHICLES
+
+
+def _idx(m, kind, name):
+    i = mujoco.mj_name2id(m, kind, name)
+    if i < 0:
+        raise KeyError(name)
+    return i
+
+
+@dataclass
+class CarGeometry:
+    corner_names: list[str]
+    suffixes: list[str]
+    corner_x: list[float]
+    corner_y: list[float]
+    tracks: list[int]
+    wheelbase: float
+
+
+class Plant:
+    def __init__(self, vehicle_cfgs, dt: float, source: str | None = None, spacing: float = 2.5):
+        models = {v.model for v in vehicle_cfgs}
+        if len(models) != 1:
+            raise ScenarioError("an ensemble must use one vehicle model", source=source, field="vehicle.model")
+        self.vcls = VEHICLES.get(vehicle_cfgs[0].model, field="vehicle.model", source=source)
+        self.params = [validate_params(self.vcls.Params, v.params, "vehicle.params", source) for v in vehicle_cfgs]
+        corners = self.vcls.corners(self.params[0])
+        for p in self.params[1:]:
+            if len(self.vcls.corners(p)) != len(corners):
+                raise ScenarioError("an ensemble's cars must have the same corners", source=source)
+        self.n = len(vehicle_cfgs)
+        self.corners = corners
+        self.nc = len(corners)
+        self.dt = dt
+        self.body_joints = self.vcls.body_joints
+        self.has_tire = all(c.has_tire for c in corners)
+
+        roots = [self.vcls.build(p, dt=dt) for p in self.params]
+        self.car_roots = roots
+        world = mjcf.RootElement(model=f"{self.vcls.name}_ensemble" if self.n > 1 else self.vcls.name)
+        world.compiler.angle = "radian"
+        world.option.timestep = dt
+        world.option.integrator = "implicitfast"
+        world.option.gravity = [0, 0, -9.81]
+        world.visual.__getattr__("global").offwidth = 1280
+        world.visual.__getattr__("global").offheight = 720
+        for i, r in enumerate(roots):
+            r.model = f"car{i}"
+            frame = world.worldbody.attach(r)
+            frame.pos = [0.0, spacing * i, 0.0]
+        self.mjcf_root = world
+        self.model = mujoco.MjModel.from_xml_string(world.to_xml_string(), world.get_assets())
+        self.data = mujoco.MjData(self.model)
+        self._index()
+
+    # ------------------------------------------------------------------------------------------------
+    def _index(self):
+        m = self.model
+        J, T, A = mujoco.mjtObj.mjOBJ_JOINT, mujoco.mjtObj.mjOBJ_TENDON, mujoco.mjtObj.mjOBJ_ACTUATOR
+        n, nc = self.n, self.nc
+        sfx = [c.suffix for c in self.corners]
+        self.suffixes = sfx
+
+        def grid(kind, fmt, fn):
+            out = np.zeros((n, nc), dtype=np.int64)
+            for i in range(n):
+                for c, s in enumerate(sfx):
+                    out[i, c] = fn(_idx(m, kind, f"car{i}/{fmt.format(s=s)}"))
+            return out
+
+        self.road_q = grid(J, "road_z{s}", lambda j: m.jnt_qposadr[j])
+        self.road_v = grid(J, "road_z{s}", lambda j: m.jnt_dofadr[j])
+        if self.has_tire:
+            self.wheel_q = grid(J, "wheel_z{s}", lambda j: m.jnt_qposadr[j])
+            self.wheel_v = grid(J, "wheel_z{s}", lambda j: m.jnt_dofadr[j])
+            self.tire_t = grid(T, "tire{s}", lambda j: j)
+            self.eff_t = grid(A, "effect_tire{s}", lambda j: j)
+        else:
+            self.wheel_q, self.wheel_v = self.road_q, self.road_v
+            self.tire_t = self.eff_t = None
+        self.susp_t = grid(T, "suspension{s}", lambda j: j)
+        self.act = grid(A, "actuator{s}", lambda j: j)
+        self.eff_s = grid(A, "effect_suspension{s}", lambda j: j)
+        self.road_servo = grid(A, "road{s}", lambda j: j)
+        nb = len(self.body_joints)
+        self.body_q = np.zeros((n, nb), dtype=np.int64)
+        self.body_v = np.zeros((n, nb), dtype=np.int64)
+        for i in range(n):
+            for k, jn in enumerate(self.body_joints):
+                j = _idx(m, J, f"car{i}/{jn}")
+                self.body_q[i, k] = m.jnt_qposadr[j]
+                self.body_v[i, k] = m.jnt_dofadr[j]
+        # static preloads (spring force carried at equilibrium)
+        self.static_susp = m.tendon_stiffness[self.susp_t] * m.tendon_lengthspring[self.susp_t, 0]
+        if self.has_tire:
+            self.static_tire = m.tendon_stiffness[self.tire_t] * m.tendon_lengthspring[self.tire_t, 0]
+        else:
+            self.static_tire = self.static_susp.copy()
+        self.free_q = np.setdiff1d(np.arange(m.nq), self.road_q.ravel())
+        self.free_v = np.setdiff1d(np.arange(m.nv), self.road_v.ravel())
+
+    # ------------------------------------------------------------------------------------------------
+    @property
+    def geometry(self) -> CarGeometry:
+        return CarGeometry(
+            corner_names=[c.name for c in self.corners], suffixes=self.suffixes,
+            corner_x=[c.x for c in self.corners], corner_y=[c.y for c in self.corners],
+            tracks=[c.track for c in self.corners], wheelbase=self.vcls.wheelbase(self.params[0]))
+
+    def tendon_values(self, field: str, which: str = "suspension") -> np.ndarray:
+        idx = self.susp_t if which == "suspension" else self.tire_t
+        return getattr(self.model, field)[idx].copy()
+
+    def variation_index(self, param: str, corner_sel: list[int] | None = None):
+        """(MjModel field name, flat index array (n_cars, k)) changed by a vehicle parameter."""
+        m = self.model
+        targets = self.vcls.variation_targets(self.params[0])
+        if param not in targets:
+            raise ScenarioError(f"parameter {param!r} cannot vary in time for model {self.vcls.name!r} "
+                                f"(can: {', '.join(targets)})", field="vehicle.variations.param")
+        fields = set()
+        cols = []
+        for kind, elem, k in targets[param]:
+            objtype = mujoco.mjtObj.mjOBJ_BODY if kind.startswith("body") else mujoco.mjtObj.mjOBJ_TENDON
+            ids = [_idx(m, objtype, f"car{i}/{elem}") for i in range(self.n)]
+            fields.add(kind)
+            if kind == "body_inertia":
+                cols.append([3 * j + k for j in ids])
+            else:
+                cols.append(ids)
+        if len(fields) != 1:
+            raise RuntimeError("a parameter must map onto one MjModel field")
+        return fields.pop(), np.asarray(cols, dtype=np.int64).T

@@ -1,0 +1,1 @@
+"""Road and base-excitation inputs (one file each)."""

@@ -1,0 +1,1 @@
+"""Sensors: what a controller may read (one registered type per measured quantity)."""

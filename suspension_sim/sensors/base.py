@@ -1,0 +1,108 @@
+"""Sensor interface and the measurement pipeline.
+
+A sensor *type* reads one true quantity from the plant (:class:`PlantState`), shape ``(n_cars, k)``.  The
+scenario declares each sensor with a name, a type and a pipeline, applied in this order:
+
+    true value -> pure delay -> bias + white noise (seeded) -> quantisation -> sample-and-hold at ``rate``
+
+The delay is rounded to whole control steps; a sensor slower than the control rate holds its last sample.
+Controllers receive ``{sensor name: reading}`` and nothing else, unless the scenario grants
+``controller.full_state`` (then the true quantities are added under ``"state.<type>"`` and the run's
+summary says so).
+"""
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..components import NoParams
+
+
+@dataclass
+class PlantState:
+    """True plant quantities at the current control instant, all arrays (n_cars, ...).
+
+    ``body_*`` are the body degrees of freedom in the order of the model's body joints (heave in m,
+    pitch/roll in rad); ``corner_*`` the body point above each corner; accelerations are those of the last
+    physics step (a real accelerometer's sample precedes the force computed from it).
+    """
+
+    t: float
+    body_pos: np.ndarray
+    body_vel: np.ndarray
+    body_acc: np.ndarray
+    corner_body_pos: np.ndarray
+    corner_body_vel: np.ndarray
+    corner_body_acc: np.ndarray
+    wheel_pos: np.ndarray
+    wheel_vel: np.ndarray
+    wheel_acc: np.ndarray
+    travel: np.ndarray
+    travel_rate: np.ndarray
+    road: np.ndarray
+    road_vel: np.ndarray
+    tire_force: np.ndarray
+    actuator_force: np.ndarray
+    actuator_states: dict = field(default_factory=dict)
+    extra: dict = field(default_factory=dict)  # e.g. road preview, maneuver signals
+
+
+@dataclass
+class SensorContext:
+    n_cars: int
+    corners: list[str]
+    suffixes: list[str]
+    body_joints: tuple[str, ...]
+    control_dt: float
+
+
+class Sensor:
+    """Base class of a sensor type: :meth:`read` the true value, :meth:`labels` name its components."""
+
+    name = "sensor"
+    Params = NoParams
+    unit = ""
+
+    def __init__(self, p, ctx: SensorContext):
+        self.p = p
+        self.ctx = ctx
+
+    def read(self, s: PlantState) -> np.ndarray:
+        raise NotImplementedError
+
+    def labels(self) -> list[str]:
+        return [c or "value" for c in self.ctx.suffixes]
+
+
+class SensorChannel:
+    """One declared sensor: a type plus its measurement pipeline."""
+
+    def __init__(self, cfg, sensor: Sensor, control_dt: float, rng: np.random.Generator):
+        self.cfg = cfg
+        self.name = cfg.name
+        self.sensor = sensor
+        self.rng = rng
+        self.delay_steps = int(round(cfg.delay / control_dt))
+        self.hold_steps = max(1, int(round((1.0 / cfg.rate) / control_dt))) if cfg.rate else 1
+        self.reset()
+
+    def reset(self):
+        self._buf: deque = deque(maxlen=self.delay_steps + 1)
+        self._held = None
+        self._k = 0
+
+    def sample(self, s: PlantState) -> np.ndarray:
+        true = np.asarray(self.sensor.read(s), dtype=float)
+        self._buf.append(true.copy())
+        delayed = self._buf[0]
+        if self._k % self.hold_steps == 0 or self._held is None:
+            y = delayed + self.cfg.bias
+            if self.cfg.noise_std > 0:
+                y = y + self.rng.normal(0.0, self.cfg.noise_std, size=y.shape)
+            if self.cfg.quantization > 0:
+                y = np.round(y / self.cfg.quantization) * self.cfg.quantization
+            self._held = y
+        self._k += 1
+        return self._held

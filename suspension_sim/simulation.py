@@ -1,0 +1,443 @@
+"""The simulation loop.
+
+Per physics step ``dt`` (default 0.5 ms), for every car of the ensemble at once:
+
+1. the road plates are placed kinematically at the road height (and rate) under each wheel;
+2. time-varying parameters and manoeuvre loads are applied (at control instants / every step);
+3. ``mj_step1`` computes positions and velocities (tendon lengths = travel, tire deflection);
+4. at control instants (every ``control_dt``) the sensors sample the plant and the controller returns a
+   command, held (zero-order hold) until the next control instant;
+5. the actuator force and the effect forces are computed from the state at the start of the step and
+   written to the corner motors;
+6. ``mj_step2`` integrates (implicitfast: tendon dampers implicit) and the actuator states advance.
+
+Logging happens every ``log_dt``.  A NaN or runaway state stops the run with
+:class:`~suspension_sim.errors.SimulationDiverged` naming the time, the state and a hint.
+"""
+from __future__ import annotations
+
+import time as _time
+from pathlib import Path
+from typing import Callable, Sequence
+
+import mujoco
+import numpy as np
+
+from .actuators.base import ActuatorContext
+from .components import stack_params, validate_params
+from .config import Scenario, load_scenario
+from .effects.base import EffectContext
+from .errors import ScenarioError, SimulationDiverged
+from .plant import Plant
+from .registry import ACTUATORS, CONTROLLERS, EFFECTS, ROADS, SENSORS
+from .roads.base import RoadContext
+from .sensors.base import PlantState, SensorChannel, SensorContext
+
+STRUCTURE_KEYS = ("vehicle.model", "effects", "actuator.type", "controller.type", "sensors", "sim")
+
+
+def structure_key(sc: Scenario) -> tuple:
+    """Scenarios with equal keys can be simulated together as one ensemble (parameters may differ)."""
+    return (
+        sc.vehicle.model,
+        tuple((e.type, tuple(e.corners) if e.corners != "all" else "all") for e in sc.vehicle.effects),
+        tuple((v.param, v.kind, v.mode) for v in sc.vehicle.variations),
+        sc.vehicle.maneuver.type if sc.vehicle.maneuver else None,
+        sc.actuator.type,
+        sc.controller.type,
+        sc.controller.full_state,
+        tuple((s.name, s.type) for s in sc.sensors),
+        (sc.sim.duration, sc.sim.dt, sc.sim.control_dt, sc.sim.log_dt),
+    )
+
+
+class SpeedProfile:
+    """Vehicle speed and distance over time (constant, or linear between [time, speed] points)."""
+
+    def __init__(self, speed, duration: float, dt: float):
+        if isinstance(speed, (int, float)):
+            self.const = float(speed)
+            self.t = self.x = None
+        else:
+            self.const = None
+            pts = np.asarray(speed, dtype=float)
+            tg = np.arange(0.0, duration + 2 * dt, dt)
+            v = np.interp(tg, pts[:, 0], pts[:, 1])
+            x = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * dt)])
+            self.t, self.v, self.x = tg, v, x
+
+    def distance(self, t):
+        if self.const is not None:
+            return self.const * np.asarray(t, dtype=float)
+        return np.interp(t, self.t, self.x)
+
+    def speed(self, t):
+        if self.const is not None:
+            return np.full_like(np.asarray(t, dtype=float), self.const)
+        return np.interp(t, self.t, self.v)
+
+    def time_at(self, x, t_now):
+        """Time at which the front axle was at distance x (x may be behind the start)."""
+        if self.const is not None:
+            if self.const <= 0:
+                return np.asarray(t_now, dtype=float)
+            return np.asarray(x, dtype=float) / self.const
+        v0 = max(self.v[0], 1e-9)
+        xt = np.asarray(x, dtype=float)
+        inside = np.interp(xt, self.x, self.t) if self.x[-1] > self.x[0] else np.asarray(t_now, dtype=float)
+        before = xt / v0 if self.v[0] > 0 else np.zeros_like(xt)
+        return np.where(xt < 0, before, inside)
+
+    @property
+    def max_distance(self) -> float:
+        return float(self.x[-1]) if self.const is None else 0.0
+
+    def mean(self, duration):
+        return self.const if self.const is not None else float(np.mean(self.v))
+
+
+class Simulation:
+    """One ensemble simulation. Build with structurally equal scenarios, then :meth:`run`."""
+
+    def __init__(self, scenarios: Sequence[Scenario], source: str | None = None, n_threads: int = 1):
+        if not scenarios:
+            raise ValueError("no scenario")
+        keys = {structure_key(s) for s in scenarios}
+        if len(keys) != 1:
+            raise ScenarioError("scenarios of one ensemble must share model, effects, actuator, controller, "
+                                "sensors and timing", source=source)
+        self.scenarios = list(scenarios)
+        self.source = source
+        sc0 = self.scenarios[0]
+        sim = sc0.sim
+        self.dt, self.control_dt, self.log_dt, self.duration = sim.dt, sim.control_dt, sim.log_dt, sim.duration
+        self.sub = int(round(self.control_dt / self.dt))
+        self.log_every = int(round(self.log_dt / self.dt))
+        self.n_steps = int(round(self.duration / self.dt))
+        self.plant = Plant([s.vehicle for s in self.scenarios], self.dt, source)
+        P = self.plant
+        n, nc = P.n, P.nc
+        self.geom = P.geometry
+        m = P.model
+        ks = m.tendon_stiffness[P.susp_t]
+        cs = m.tendon_damping[P.susp_t]
+        kt = m.tendon_stiffness[P.tire_t] if P.has_tire else np.zeros((n, nc))
+        ct = m.tendon_damping[P.tire_t] if P.has_tire else np.zeros((n, nc))
+        self.kt, self.ct = kt, ct
+
+        # effects ------------------------------------------------------------------------------------
+        self.effects = []
+        for i, ecfg in enumerate(sc0.vehicle.effects):
+            ecls = EFFECTS.get(ecfg.type, field=f"vehicle.effects.{i}.type", source=source)
+            sel = list(range(nc)) if ecfg.corners == "all" else [self.geom.corner_names.index(c) for c in ecfg.corners]
+            if ecls.target == "tire" and not P.has_tire:
+                raise ScenarioError(f"effect '{ecfg.type}' acts on the tire, and model '{sc0.vehicle.model}' has none",
+                                    source=source, field=f"vehicle.effects.{i}.type")
+            plist = [validate_params(ecls.Params, s.vehicle.effects[i].params, f"vehicle.effects.{i}.params", source)
+                     for s in self.scenarios]
+            ctx = EffectContext(n_cars=n, corners=[self.geom.corner_names[c] for c in sel], dt=self.dt,
+                                static_suspension_force=P.static_susp[:, sel], static_tire_force=P.static_tire[:, sel],
+                                spring_stiffness=ks[:, sel], damping=cs[:, sel], tire_stiffness=kt[:, sel],
+                                tire_damping=ct[:, sel])
+            self.effects.append((ecls(stack_params(plist, len(sel)), ctx), np.asarray(sel)))
+
+        # actuator --------------------------------------------------------------------------------------
+        acls = ACTUATORS.get(sc0.actuator.type, field="actuator.type", source=source)
+        ap = stack_params([validate_params(acls.Params, s.actuator.params, "actuator.params", source)
+                           for s in self.scenarios], nc)
+        self.actuator = acls(ap, ActuatorContext(n, nc, self.dt, self.control_dt, P.static_susp.copy()))
+
+        # roads ----------------------------------------------------------------------------------------
+        self.speeds, self.roads = [], []
+        for i, s in enumerate(self.scenarios):
+            sp = SpeedProfile(s.road.speed, self.duration, self.dt)
+            rcls = ROADS.get(s.road.type, field="road.type", source=source)
+            rp = validate_params(rcls.Params, s.road.params, "road.params", source)
+            seed = s.road.seed if s.road.seed is not None else s.sim.seed
+            dist = float(sp.distance(self.duration)) if sp.const is not None else sp.max_distance
+            rctx = RoadContext(duration=self.duration, distance=dist, wheelbase=self.geom.wheelbase,
+                               mean_speed=sp.mean(self.duration), dt=self.dt,
+                               n_tracks=1 + int(max(self.geom.tracks) > 0))
+            self.speeds.append(sp)
+            self.roads.append(rcls(rp, np.random.default_rng([seed, 8608]), rctx))
+        xs = np.asarray(self.geom.corner_x)
+        self.corner_back = xs.max() - xs  # distance of each axle behind the front axle
+
+        # time-varying parameters -----------------------------------------------------------------------
+        self.variations = []
+        for vi, v in enumerate(sc0.vehicle.variations):
+            fld, idx = P.variation_index(v.param)
+            arr = getattr(m, fld).reshape(-1) if fld == "body_inertia" else getattr(m, fld)
+            nominal = arr[idx].copy()
+            cfgs = [s.vehicle.variations[vi] for s in self.scenarios]
+            self.variations.append((arr, idx, nominal, cfgs))
+
+        # manoeuvre (inertial loads) --------------------------------------------------------------------
+        self.maneuver = None
+        if sc0.vehicle.maneuver is not None:
+            from .maneuvers import build_maneuver
+
+            self.maneuver = build_maneuver(self.scenarios, P, source)
+
+        # sensors ---------------------------------------------------------------------------------------
+        sctx = SensorContext(n, self.geom.corner_names, self.geom.suffixes, P.body_joints, self.control_dt)
+        self.sensors: list[SensorChannel] = []
+        for i, scfg in enumerate(sc0.sensors):
+            scls = SENSORS.get(scfg.type, field=f"sensors.{i}.type", source=source)
+            sp_ = stack_params([validate_params(scls.Params, s.sensors[i].params, f"sensors.{i}.params", source)
+                                for s in self.scenarios], nc)
+            rng = np.random.default_rng([sc0.sim.seed, 2631, i])
+            self.sensors.append(SensorChannel(scfg, scls(sp_, sctx), self.control_dt, rng))
+
+        # controller ------------------------------------------------------------------------------------
+        from controllers.base import ControlContext
+
+        ccls = CONTROLLERS.get(sc0.controller.type, field="controller.type", source=source)
+        cp = stack_params([validate_params(ccls.Params, s.controller.params, "controller.params", source)
+                           for s in self.scenarios], nc)
+        vparams = stack_params(P.params, nc)
+        self.full_state = sc0.controller.full_state
+        self.cctx = ControlContext(
+            n_cars=n, corners=self.geom.corner_names, suffixes=self.geom.suffixes, corner_x=self.geom.corner_x,
+            corner_y=self.geom.corner_y, control_dt=self.control_dt, dt=self.dt, vehicle_model=sc0.vehicle.model,
+            vehicle=vparams, sensors={ch.name: ch.sensor.labels() for ch in self.sensors},
+            actuator=sc0.actuator.type, command_unit=acls.command_unit, full_state=self.full_state,
+            static_suspension_force=P.static_susp.copy())
+        self.controller = ccls(cp, self.cctx)
+
+    # ------------------------------------------------------------------------------------------------
+    def _road_chunk(self, k0: int, k1: int):
+        """Road height and rate under each wheel for physics steps k0..k1-1: arrays (n, k1-k0, nc)."""
+        n, nc = self.plant.n, self.plant.nc
+        L = k1 - k0
+        t = (np.arange(k0 - 1, k1 + 1)) * self.dt  # one extra sample each side for central differences
+        z = np.empty((n, L + 2, nc))
+        for i, (road, sp) in enumerate(zip(self.roads, self.speeds)):
+            x = sp.distance(t)
+            for c in range(nc):
+                xc = x - self.corner_back[c]
+                tc = t if self.corner_back[c] == 0 else sp.time_at(xc, t)
+                z[i, :, c] = road.height(tc, xc, self.geom.tracks[c])
+        zd = (z[:, 2:, :] - z[:, :-2, :]) / (2 * self.dt)
+        return z[:, 1:-1, :], zd
+
+    def _apply_variations(self, t: float):
+        for arr, idx, nominal, cfgs in self.variations:
+            vals = np.empty_like(nominal)
+            for i, v in enumerate(cfgs):
+                vals[i] = _variation_value(v, t, nominal[i])
+            arr[idx] = vals
+
+    def _state(self, t, road, road_vel, acc, F_act, F_tire_eff) -> PlantState:
+        P, d = self.plant, self.plant.data
+        travel = d.ten_length[P.susp_t]
+        travel_rate = d.ten_velocity[P.susp_t]
+        wheel_pos = d.qpos[P.wheel_q]
+        wheel_vel = d.qvel[P.wheel_v]
+        wheel_acc = acc[P.wheel_v] if P.has_tire else np.zeros_like(travel)
+        if P.has_tire:
+            tl, tr = d.ten_length[P.tire_t], d.ten_velocity[P.tire_t]
+            tire = -self.kt * tl - self.ct * tr + F_tire_eff
+        else:
+            tire = np.zeros_like(travel)
+        st = PlantState(
+            t=t, body_pos=d.qpos[P.body_q], body_vel=d.qvel[P.body_v], body_acc=acc[P.body_v],
+            corner_body_pos=travel + wheel_pos, corner_body_vel=travel_rate + wheel_vel,
+            corner_body_acc=self._Jb_acc(acc),
+            wheel_pos=wheel_pos, wheel_vel=wheel_vel, wheel_acc=wheel_acc, travel=travel, travel_rate=travel_rate,
+            road=road, road_vel=road_vel, tire_force=tire, actuator_force=F_act,
+            actuator_states=self.actuator.states())
+        if any(ch.sensor.name == "road_preview" for ch in self.sensors):
+            st.extra["road_preview"] = lambda dist: self._preview(t, dist)
+        return st
+
+    def _preview(self, t, dist):
+        out = np.empty((self.plant.n, self.plant.nc))
+        for i, (road, sp) in enumerate(zip(self.roads, self.speeds)):
+            x = float(sp.distance(t))
+            for c in range(self.plant.nc):
+                xc = x - self.corner_back[c] + dist
+                v = max(float(sp.speed(t)), 1e-9)
+                out[i, c] = road.height(np.array([t + dist / v]), np.array([xc]), self.geom.tracks[c])[0]
+        return out
+
+    def _build_corner_jacobian(self):
+        """Rows of each suspension tendon restricted to the body dofs (for corner body kinematics)."""
+        P, m = self.plant, self.plant.model
+        n, nc, nb = P.n, P.nc, len(P.body_joints)
+        Jb = np.zeros((n, nc, nb))
+        for i in range(n):
+            for c in range(nc):
+                ti = P.susp_t[i, c]
+                for w in range(m.tendon_adr[ti], m.tendon_adr[ti] + m.tendon_num[ti]):
+                    dof = m.jnt_dofadr[m.wrap_objid[w]]
+                    hit = np.nonzero(P.body_v[i] == dof)[0]
+                    if hit.size:
+                        Jb[i, c, hit[0]] += m.wrap_prm[w]
+        self._Jb = Jb
+
+    def _Jb_acc(self, acc):
+        """Acceleration of the body point above each corner: J_body · qacc (fixed tendons are linear)."""
+        return np.einsum("ncb,nb->nc", self._Jb, acc[self.plant.body_v])
+
+    # ------------------------------------------------------------------------------------------------
+    def run(self, progress: Callable[[float], None] | None = None) -> list:
+        from .results import Logger, Result
+
+        P = self.plant
+        m, d = P.model, P.data
+        n, nc = P.n, P.nc
+        mujoco.mj_resetData(m, d)
+        self._build_corner_jacobian()
+        self.actuator.reset()
+        self.controller.reset()
+        for e, _ in self.effects:
+            e.reset()
+        for ch in self.sensors:
+            ch.reset()
+        logger = Logger(self, n_log=self.n_steps // self.log_every)
+        command = np.zeros((n, nc))
+        F_act = np.zeros((n, nc))
+        F_eff = np.zeros((n, nc))
+        F_teff = np.zeros((n, nc))
+        acc = np.zeros(m.nv)
+        chunk = max(self.sub, 2000 // self.sub * self.sub)
+        wall0 = _time.perf_counter()
+        prog_every = max(1, self.n_steps // 100)
+        road_chunk = None
+        readings: dict = {}
+        for k in range(self.n_steps):
+            t = k * self.dt
+            j = k % chunk
+            if j == 0:
+                road_chunk = self._road_chunk(k, min(k + chunk, self.n_steps))
+            road, road_vel = road_chunk[0][:, j, :], road_chunk[1][:, j, :]
+            d.qpos[P.road_q] = road
+            d.qvel[P.road_v] = road_vel
+            d.ctrl[P.road_servo] = road
+            control_now = k % self.sub == 0
+            if control_now and self.variations:
+                self._apply_variations(t)
+            if self.maneuver is not None:
+                d.qfrc_applied[:] = 0.0
+                self.maneuver.apply(t, d)
+            mujoco.mj_step1(m, d)
+            if control_now:
+                self._check(t, d)
+                state = self._state(t, road, road_vel, acc, F_act, F_teff)
+                readings = {ch.name: ch.sample(state) for ch in self.sensors}
+                if self.full_state:
+                    readings.update(_full_state(state))
+                command = np.asarray(self.controller.step(t, readings), dtype=float)
+                if command.shape != (n, nc):
+                    command = np.broadcast_to(command, (n, nc)).astype(float)
+            travel = d.ten_length[P.susp_t]
+            rate = d.ten_velocity[P.susp_t]
+            F_act = self.actuator.force(command, travel, rate, t)
+            if self.effects:
+                F_eff = np.zeros((n, nc))
+                F_teff = np.zeros((n, nc))
+                for eff, sel in self.effects:
+                    if eff.target == "tire":
+                        f = eff.force(d.ten_length[P.tire_t][:, sel], d.ten_velocity[P.tire_t][:, sel], t, self.dt)
+                        F_teff[:, sel] += f
+                    else:
+                        F_eff[:, sel] += eff.force(travel[:, sel], rate[:, sel], t, self.dt)
+                d.ctrl[P.eff_s] = F_eff
+                if P.has_tire:
+                    d.ctrl[P.eff_t] = F_teff
+            d.ctrl[P.act] = F_act
+            log_now = k % self.log_every == 0
+            if log_now:
+                logger.pre(k // self.log_every, t, road, road_vel, travel, rate, command, F_act, F_eff, F_teff, readings)
+            mujoco.mj_step2(m, d)
+            acc = d.qacc.copy() if (log_now or (k + 1) % self.sub == 0) else acc
+            if log_now:
+                logger.post(k // self.log_every, d.qacc)
+            self.actuator.advance(command, travel, rate, t, self.dt)
+            if progress is not None and k % prog_every == 0:
+                progress(k / self.n_steps)
+        self._check(self.n_steps * self.dt, d)
+        wall = _time.perf_counter() - wall0
+        if progress is not None:
+            progress(1.0)
+        return [Result.from_logger(logger, i, self, wall) for i in range(n)]
+
+    def _check(self, t, d):
+        P = self.plant
+        q, v = d.qpos[P.free_q], d.qvel[P.free_v]
+        lim_x = self.scenarios[0].sim.max_displacement
+        lim_v = self.scenarios[0].sim.max_velocity
+        bad_q = ~np.isfinite(q) | (np.abs(q) > lim_x)
+        bad_v = ~np.isfinite(v) | (np.abs(v) > lim_v)
+        if bad_q.any() or bad_v.any():
+            m = P.model
+            dof = P.free_v[np.argmax(bad_v)] if bad_v.any() else None
+            qa = P.free_q[np.argmax(bad_q)] if bad_q.any() else None
+            car = None
+            state = {}
+            for i in range(P.n):
+                idx = np.concatenate([P.body_q[i], P.wheel_q[i]])
+                if (qa is not None and qa in idx) or (dof is not None and dof in np.concatenate([P.body_v[i], P.wheel_v[i]])):
+                    car = i
+                    break
+            ci = car or 0
+            for k, jn in enumerate(P.body_joints):
+                state[f"{jn}"] = float(d.qpos[P.body_q[ci, k]])
+                state[f"{jn}_vel"] = float(d.qvel[P.body_v[ci, k]])
+            for c, s in enumerate(P.suffixes):
+                state[f"travel{s}"] = float(d.ten_length[P.susp_t[ci, c]])
+            nonfinite = not (np.isfinite(q).all() and np.isfinite(v).all())
+            hint = ("NaN: a force law produced an invalid value or the step is far too large for a stiff element"
+                    if nonfinite else
+                    "runaway state: the step may be too large for a stiff effect or actuator (try a smaller sim.dt), "
+                    "the controller may be unstable, or the limits sim.max_displacement/max_velocity too tight")
+            raise SimulationDiverged(t, state, hint, car=car if P.n > 1 else None)
+
+
+def _full_state(s: PlantState) -> dict:
+    out = {}
+    for k, v in s.__dict__.items():
+        if isinstance(v, np.ndarray):
+            out[f"state.{k}"] = v
+    for k, v in s.actuator_states.items():
+        out[f"state.actuator.{k}"] = v
+    return out
+
+
+def _variation_value(v, t: float, nominal):
+    if v.kind == "step":
+        val = None
+        for ti, vi in zip(v.times, v.values):
+            if t >= ti:
+                val = vi
+        if val is None:
+            return nominal
+    elif v.kind == "ramp":
+        val = float(np.interp(t, v.times, v.values))
+    else:
+        amp, f = v.values[0], v.values[1]
+        ph = v.values[2] if len(v.values) > 2 else 0.0
+        val = amp * np.sin(2 * np.pi * f * t + ph)
+        if v.mode == "scale":
+            return nominal * (1.0 + val)
+    if v.mode == "add":
+        return nominal + val
+    if v.mode == "scale":
+        return nominal * val
+    return np.full_like(nominal, val)
+
+
+def simulate(scenario, progress=None, source: str | None = None):
+    """Simulate one scenario (path or :class:`Scenario`; a scenario with variants returns a dict
+    variant -> Result), or a list of structurally equal scenarios as one ensemble (list of Results)."""
+    if isinstance(scenario, (str, Path)):
+        source = str(scenario)
+        scenario = load_scenario(scenario)
+    if isinstance(scenario, Scenario):
+        variants = scenario.expand(source)
+        if len(variants) == 1 and not scenario.variants:
+            return Simulation([scenario], source).run(progress)[0]
+        return {name: Simulation([sc], source).run(progress)[0] for name, sc in variants}
+    scs = list(scenario)
+    return Simulation(scs, source).run(progress)

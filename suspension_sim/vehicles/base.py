@@ -1,0 +1,159 @@
+"""Vehicle model interface and the MJCF conventions every model follows.
+
+Each model is a plain MJCF file in ``models/`` plus a :class:`Vehicle` subclass that says how scenario
+parameters map onto the file.  Naming conventions inside the MJCF (``{s}`` is the corner suffix: empty for
+one-corner models, ``_front``/``_rear``, ``_fl``/``_fr``/``_rl``/``_rr``):
+
+- joints ``road_z{s}`` (road plate, moved kinematically), ``wheel_z{s}`` (unsprung mass, absent for the
+  SDOF rig), and the body joints listed in :attr:`Vehicle.body_joints` (``body_z``, ``pitch``, ``roll``),
+  all in world coordinates;
+- fixed tendons ``suspension{s}`` (length = body point above the corner − wheel = suspension travel,
+  positive = extension) and ``tire{s}`` (length = wheel − road; negative = tire compression);
+- motors ``actuator{s}`` and ``effect_suspension{s}`` on the suspension tendon, ``effect_tire{s}`` on the
+  tire tendon (positive force pushes the body up and the wheel down), and a ``road{s}`` position servo
+  used only when the file is simulated alone.
+
+Positions are measured from the static equilibrium: :func:`equilibrium_preloads` computes the tendon
+spring lengths (preloads) that make ``qpos = 0`` the equilibrium under gravity for the given parameters.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from dm_control import mjcf
+
+from ..components import Params
+
+GRAVITY = 9.81
+
+
+def models_dir() -> Path:
+    """Folder of the MJCF files (the repository's ``models/``, installed as ``suspension_sim.mjcf_models``)."""
+    env = os.environ.get("SUSPENSION_SIM_MODELS")
+    if env:
+        return Path(env)
+    repo = Path(__file__).resolve().parents[2] / "models"
+    if (repo / "quarter_car.xml").exists():
+        return repo
+    from importlib.resources import files
+
+    return Path(str(files("suspension_sim.mjcf_models")))
+
+
+@dataclass
+class Corner:
+    name: str
+    suffix: str
+    x: float  # longitudinal position of the axle relative to the c.g. (m, forward positive)
+    y: float = 0.0  # lateral position (m, left positive)
+    track: int = 0  # road track index (0 = left/only, 1 = right)
+    has_tire: bool = True
+
+
+class Vehicle:
+    """Base class of a vehicle model. Subclasses set ``xml``, ``Params``, ``body_joints`` and
+    implement :meth:`corners` and :meth:`apply_params`."""
+
+    name = "vehicle"
+    xml = ""
+    Params = Params
+    body_joints: tuple[str, ...] = ("body_z",)
+
+    @classmethod
+    def corners(cls, p) -> list[Corner]:
+        raise NotImplementedError
+
+    @classmethod
+    def corner_names(cls, p) -> list[str]:
+        return [c.name for c in cls.corners(p)]
+
+    @classmethod
+    def apply_params(cls, root: mjcf.RootElement, p) -> None:
+        """Write parameter values into the MJCF tree (masses, stiffnesses, geometry)."""
+        raise NotImplementedError
+
+    @classmethod
+    def wheelbase(cls, p) -> float:
+        xs = [c.x for c in cls.corners(p)]
+        return max(xs) - min(xs)
+
+    # -- building --------------------------------------------------------------------------------------
+    @classmethod
+    def build(cls, p, dt: float | None = None) -> mjcf.RootElement:
+        """The model's MJCF with parameters applied and equilibrium preloads set."""
+        root = mjcf.from_path(str(models_dir() / cls.xml))
+        cls.apply_params(root, p)
+        if dt is not None:
+            root.option.timestep = dt
+        set_equilibrium_preloads(root)
+        return root
+
+    # parameter names that scale per corner, used by time-varying variations
+    @classmethod
+    def variation_targets(cls, p) -> dict[str, list[tuple[str, str, int]]]:
+        """Map a parameter name to the MjModel fields it changes: a list of (kind, element name, index)
+        where kind is 'body_mass', 'body_inertia', 'tendon_stiffness' or 'tendon_damping'."""
+        return {}
+
+
+def set_body_mass(root: mjcf.RootElement, body: str, mass: float) -> None:
+    b = root.find("body", body)
+    b.inertial.mass = float(mass)
+
+
+def set_tendon(root: mjcf.RootElement, name: str, stiffness: float | None = None, damping: float | None = None):
+    t = root.find("tendon", name)
+    if stiffness is not None:
+        t.stiffness = float(stiffness)
+    if damping is not None:
+        t.damping = float(damping)
+
+
+def equilibrium_preloads(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
+    """Tendon spring lengths that make qpos = 0 the static equilibrium, and the equilibrium of the
+    un-preloaded springs (for information).
+
+    The springs are linear, so with free spring lengths set to zero the equilibrium solves K q = g on the
+    free (non-road) degrees of freedom, K = sum_i k_i J_i^T J_i; shifting each spring length to -J_i q_eq
+    moves that equilibrium to q = 0 while every spring keeps the force it carries there: with
+    L = J q' + J q_eq, the force -k (L - 0) equals -k (L' - L0') for L0' = -J q_eq.
+    """
+    m = model
+    d = mujoco.MjData(m)
+    m.tendon_lengthspring[:] = 0.0
+    d.qpos[:] = 0
+    d.qvel[:] = 0
+    mujoco.mj_forward(m, d)
+    nv = m.nv
+    J = np.zeros((m.ntendon, nv))
+    for i in range(m.ntendon):
+        # fixed tendons: J row is the constant coefficient vector
+        adr, num = m.tendon_adr[i], m.tendon_num[i]
+        for j in range(adr, adr + num):
+            if m.wrap_type[j] != mujoco.mjtWrap.mjWRAP_JOINT:
+                raise ValueError("only fixed tendons are supported for suspension elements")
+            jnt = m.wrap_objid[j]
+            J[i, m.jnt_dofadr[jnt]] += m.wrap_prm[j]
+    road = [m.jnt_dofadr[j] for j in range(m.njnt) if mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, j).split("/")[-1].startswith("road_z")]
+    free = [i for i in range(nv) if i not in road]
+    k = m.tendon_stiffness.copy()
+    K = (J.T * k) @ J
+    g = -d.qfrc_bias.copy()  # gravity generalized force at rest
+    Kf = K[np.ix_(free, free)]
+    q = np.zeros(nv)
+    q[free] = np.linalg.solve(Kf, g[free])
+    lengths = -(J @ q)
+    return lengths, q
+
+
+def set_equilibrium_preloads(root: mjcf.RootElement) -> np.ndarray:
+    model = mujoco.MjModel.from_xml_string(root.to_xml_string())
+    lengths, _ = equilibrium_preloads(model)
+    for i in range(model.ntendon):
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_TENDON, i)
+        root.find("tendon", name).springlength = [float(lengths[i]), float(lengths[i])]
+    return lengths
