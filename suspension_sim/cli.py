@@ -1,0 +1,178 @@
+"""The ``suspension-sim`` command line.
+
+``run SCENARIO [--out DIR] [--set path.to.key=value ...]``, ``validate SCENARIO``, ``list``; further
+commands (batch, view, compare, diagnose) are modules in :mod:`suspension_sim.commands`, each with a
+``register(app)`` function.  A user mistake prints one line (``error: <file>: <field>: <problem>``) and
+exits with status 2; a diverging simulation prints the time, the state and a hint and exits with 3.
+"""
+from __future__ import annotations
+
+import importlib
+import pkgutil
+import sys
+from datetime import datetime
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from .errors import ScenarioError, SimulationDiverged
+
+app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
+                  help="Active-suspension testbed on MuJoCo: run scenarios, sweep variants, diagnose models.")
+console = Console()
+err_console = Console(stderr=True)
+
+
+def fail(msg: str, code: int = 2):
+    err_console.print(f"[bold red]error:[/] {msg}", highlight=False, soft_wrap=True)
+    raise typer.Exit(code)
+
+
+def guarded(fn):
+    """Run ``fn`` turning user mistakes and divergence into one-line errors."""
+    try:
+        return fn()
+    except ScenarioError as e:
+        fail(str(e), 2)
+    except SimulationDiverged as e:
+        fail(str(e), 3)
+
+
+def default_out(name: str) -> Path:
+    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+    return Path("runs") / f"{name.replace('/', '_')}-{stamp}"
+
+
+@app.command()
+def run(
+    scenario: Path = typer.Argument(..., help="scenario YAML file"),
+    out: Optional[Path] = typer.Option(None, "--out", "-o", help="run folder (default runs/<name>-<time>)"),
+    set_: Optional[List[str]] = typer.Option(None, "--set", "-s", help="override: path.to.key=value (repeatable)"),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress bar"),
+    view: bool = typer.Option(False, "--view", help="stream the run to a meshcat viewer in the browser"),
+):
+    """Simulate a scenario (all its variants) and write time series, metrics, plots."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from .config import load_scenario
+    from .results import write_result
+    from .simulation import Simulation
+
+    def go():
+        sc = load_scenario(scenario, set_ or [])
+        variants = sc.expand(str(scenario))
+        folder = out or default_out(sc.name)
+        results = {}
+        with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
+                      TimeRemainingColumn(), console=err_console, disable=quiet or not sys.stderr.isatty()) as prog:
+            for vname, vsc in variants:
+                task = prog.add_task(f"{vname}", total=1.0)
+                sim = Simulation([vsc], str(scenario))
+                if view:
+                    from .viewer import attach_live_viewer  # provided by the viewer module
+
+                    attach_live_viewer(sim, console=console)
+                res = sim.run(progress=lambda f, t=task: prog.update(t, completed=f))[0]
+                results[vname] = res
+        multi = len(variants) > 1 or bool(sc.variants)
+        for vname, res in results.items():
+            write_result(res, folder / vname if multi else folder, plots=sc.outputs.plots,
+                         timeseries=sc.outputs.timeseries)
+        if multi and sc.outputs.plots:
+            from .plots import plot_run
+
+            plot_run({k: v for k, v in results.items()}, folder / "plots")
+        if multi:
+            import json
+
+            (folder / "summary.json").write_text(json.dumps(
+                {k: {"metrics": v.metrics, "full_state_access": v.info["full_state_access"]} for k, v in results.items()},
+                indent=2))
+        _print_metrics(results)
+        console.print(f"run folder: [bold]{folder}[/]")
+        for r in results.values():
+            if r.info.get("full_state_access"):
+                console.print("[yellow]note:[/] the controller had full-state access (controller.full_state: true)")
+                break
+
+    guarded(go)
+
+
+KEY_METRICS = ["body_acc_rms", "body_acc_wk_rms", "body_acc_vdv", "travel_rms", "travel_peak",
+               "tire_load_rms_rel", "actuator_force_rms", "actuator_power_mean", "pitch_peak"]
+
+
+def _print_metrics(results: dict):
+    names = []
+    for r in results.values():
+        for k in r.metrics:
+            if any(k.startswith(b) for b in KEY_METRICS) and k not in names:
+                names.append(k)
+    if not names:
+        names = sorted({k for r in results.values() for k in r.metrics})[:12]
+    table = Table(title="metrics")
+    table.add_column("metric")
+    for v in results:
+        table.add_column(v, justify="right")
+    for k in names:
+        table.add_row(k, *[f"{r.metrics.get(k, float('nan')):.4g}" for r in results.values()])
+    console.print(table)
+
+
+@app.command()
+def validate(
+    scenario: Path = typer.Argument(..., help="scenario YAML file"),
+    set_: Optional[List[str]] = typer.Option(None, "--set", "-s", help="override: path.to.key=value"),
+):
+    """Check a scenario file without running it."""
+    from .config import load_scenario
+
+    def go():
+        sc = load_scenario(scenario, set_ or [])
+        n = len(sc.expand(str(scenario)))
+        console.print(f"[green]ok[/]: {scenario} ({sc.vehicle.model}, road {sc.road.type}, controller "
+                      f"{sc.controller.type}, {n} variant{'s' if n != 1 else ''})")
+
+    guarded(go)
+
+
+@app.command("list")
+def list_(kind: Optional[str] = typer.Argument(None, help="models|effects|roads|sensors|actuators|controllers|metrics")):
+    """List the registered models, effects, roads, sensors, actuators, controllers and metrics."""
+    from .registry import ACTUATORS, CONTROLLERS, EFFECTS, METRICS, ROADS, SENSORS, VEHICLES, summary_line
+
+    groups = {"models": VEHICLES, "effects": EFFECTS, "roads": ROADS, "sensors": SENSORS,
+              "actuators": ACTUATORS, "controllers": CONTROLLERS, "metrics": METRICS}
+    if kind and kind not in groups:
+        fail(f"unknown kind {kind!r} (choose from {', '.join(groups)})")
+    for gname, reg in groups.items():
+        if kind and gname != kind:
+            continue
+        console.print(f"[bold]{gname}[/]")
+        for name, obj in reg.items():
+            console.print(f"  {name:<22} {summary_line(obj)}", highlight=False, soft_wrap=True)
+
+
+def _register_commands():
+    from . import commands
+
+    for info in pkgutil.iter_modules(commands.__path__):
+        if info.name.startswith("_"):
+            continue
+        mod = importlib.import_module(f"{commands.__name__}.{info.name}")
+        if hasattr(mod, "register"):
+            mod.register(app)
+
+
+_register_commands()
+
+
+def main():
+    app()
+
+
+if __name__ == "__main__":
+    main()
