@@ -1,0 +1,42 @@
+"""Actuator mechanical power and energy per corner (and summed over corners)."""
+import numpy as np
+from scipy import integrate
+
+from ..registry import METRICS
+from ._util import peak
+from .base import RunView
+
+
+@METRICS.register("actuator_power")
+def actuator_power(run: RunView) -> dict:
+    """Actuator mechanical power P = F·(travel rate): mean |P|, mean positive P (W) and energy ∫|P|dt (J).
+
+    With the sign conventions (F > 0 pushes the body up and the wheel down, travel > 0 = extension),
+    P = F·(ż_body − ż_wheel) is the power the actuator puts into the suspension: P > 0 it drives the motion,
+    P < 0 it absorbs energy (acts as a damper).  Keys per corner:
+
+    - ``actuator_power_mean_abs{s}`` = mean |P|, the average power flow through the actuator;
+    - ``actuator_power_mean_pos{s}`` = mean max(P, 0), what an actuator that cannot regenerate must supply;
+    - ``actuator_power_peak{s}`` = max |P|;
+    - ``actuator_energy{s}`` = ∫|P| dt (trapezoid rule over the log), J.
+
+    These are mechanical quantities at the actuator, not electrical or hydraulic input power (losses are the
+    actuator model's business).  Multi-corner models also get ``..._total`` sums over corners.
+    """
+    out = {}
+    t = run.ts["t"].to_numpy()
+    tot = {"actuator_power_mean_abs": 0.0, "actuator_power_mean_pos": 0.0, "actuator_energy": 0.0}
+    for s in run.suffixes:
+        p = run.ts[f"actuator_force{s}"].to_numpy() * run.ts[f"travel_rate{s}"].to_numpy()
+        vals = {
+            "actuator_power_mean_abs": float(np.mean(np.abs(p))) if p.size else float("nan"),
+            "actuator_power_mean_pos": float(np.mean(np.clip(p, 0.0, None))) if p.size else float("nan"),
+            "actuator_energy": float(integrate.trapezoid(np.abs(p), t)) if p.size > 1 else 0.0,
+        }
+        for k, v in vals.items():
+            out[f"{k}{s}"] = v
+            tot[k] += v
+        out[f"actuator_power_peak{s}"] = peak(p)
+    if len(run.suffixes) > 1:
+        out.update({f"{k}_total": v for k, v in tot.items()})
+    return out

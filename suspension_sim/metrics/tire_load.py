@@ -1,0 +1,23 @@
+"""Dynamic tire load: RMS and peak, absolute and relative to the static load, per corner."""
+from ..registry import METRICS
+from ._util import peak
+from .base import RunView, rms
+
+
+@METRICS.register("tire_load")
+def tire_load(run: RunView) -> dict:
+    """Dynamic tire load RMS and peak (N) and RMS relative to the static wheel load, per corner.
+
+    ``tire_force{s}`` in the log is the dynamic part (total minus static, positive = more compression), so
+    ``tire_load_rms_rel{s}`` = RMS(F_dyn)/F_static, the usual road-holding measure (1/3 means the tire
+    lifts off about 0.1 % of the time for Gaussian loads).
+    """
+    out = {}
+    for s in run.suffixes:
+        f = run.ts[f"tire_force{s}"].to_numpy()
+        static = float(run.static_tire_force[s])
+        r = rms(f)
+        out[f"tire_force_rms{s}"] = r
+        out[f"tire_force_peak{s}"] = peak(f)
+        out[f"tire_load_rms_rel{s}"] = r / static if static > 0 else float("nan")
+    return out
