@@ -282,6 +282,32 @@ class Simulation:
 
     # ------------------------------------------------------------------------------------------------
     def run(self, progress: Callable[[float], None] | None = None) -> list:
+        """Simulate the whole run with the scenario's controller; one Result per car."""
+        readings = self.start(progress)
+        while readings is not None:
+            readings = self.control_step(self.controller.step(self.t, readings))
+        return self.results
+
+    def start(self, progress: Callable[[float], None] | None = None) -> dict:
+        """Step-wise use (e.g. reinforcement learning): reset and advance to the first control instant.
+
+        Returns the sensor readings at t = 0; then call :meth:`control_step` with each command.  The physics
+        is the loop of :meth:`run` itself (which is built on these two methods), so results are identical."""
+        self._loop = self._steps(progress)
+        self.results = None
+        return self.control_step(None)
+
+    def control_step(self, command) -> dict | None:
+        """Hold ``command`` (n_cars, n_corners) over one control step (zero-order hold) and return the
+        readings at the next control instant, or None when the run has ended (then :attr:`results` holds one
+        Result per car).  :attr:`t` is the time and :attr:`state` the true PlantState of the readings."""
+        try:
+            return self._loop.send(command) if command is not None else next(self._loop)
+        except StopIteration as stop:
+            self.results = stop.value
+            return None
+
+    def _steps(self, progress):
         from .results import Logger, Result
 
         P = self.plant
@@ -328,7 +354,8 @@ class Simulation:
                 readings = {ch.name: ch.sample(state) for ch in self.sensors}
                 if self.full_state:
                     readings.update(_full_state(state))
-                command = np.asarray(self.controller.step(t, readings), dtype=float)
+                self.t, self.state = t, state
+                command = np.asarray((yield readings), dtype=float)
                 if command.shape != (n, nc):
                     command = np.broadcast_to(command, (n, nc)).astype(float)
             travel = d.ten_length[P.susp_t]
