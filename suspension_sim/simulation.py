@@ -157,7 +157,7 @@ class Simulation:
             dist = float(sp.distance(self.duration)) if sp.const is not None else sp.max_distance
             rctx = RoadContext(duration=self.duration, distance=dist, wheelbase=self.geom.wheelbase,
                                mean_speed=sp.mean(self.duration), dt=self.dt,
-                               n_tracks=1 + int(max(self.geom.tracks) > 0))
+                               n_tracks=1 + int(max(self.geom.tracks) > 0), tracks=s.road.tracks)
             self.speeds.append(sp)
             self.roads.append(rcls(rp, np.random.default_rng([seed, 8608]), rctx))
         xs = np.asarray(self.geom.corner_x)

@@ -28,6 +28,7 @@ class RoadContext:
     mean_speed: float  # m/s
     dt: float  # physics step (s)
     n_tracks: int = 1
+    tracks: str = "same"  # scenario road.tracks: left/right tracks 'same' or 'independent' (random roads)
 
 
 class Road:
