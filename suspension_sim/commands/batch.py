@@ -1,0 +1,74 @@
+"""``suspension-sim batch SWEEP.yaml [--out DIR] [--workers N] [--scheduler ADDRESS | --dask-local N] [--resume]``:
+run a parameter sweep / Monte Carlo study headless (see :mod:`suspension_sim.batch`)."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+KEY_METRICS = ("body_acc_rms", "body_acc_wk_rms", "travel_rms", "travel_peak", "tire_load_rms_rel",
+               "actuator_force_rms", "body_acc_peak")
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    def batch(
+        sweep: Path = typer.Argument(..., help="sweep YAML file (base scenario + what varies)"),
+        out: Optional[Path] = typer.Option(None, "--out", "-o", help="output folder (default runs/batch-<name>)"),
+        workers: Optional[int] = typer.Option(None, "--workers", "-w", help="local worker processes (default: cores)"),
+        scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address, e.g. tcp://host:8786"),
+        dask_local: Optional[int] = typer.Option(None, "--dask-local", help="start a local Dask cluster of N workers"),
+        resume: bool = typer.Option(True, "--resume/--fresh",
+                                    help="recompute only missing or failed runs in --out (default) / start over"),
+        ensemble_size: Optional[int] = typer.Option(None, "--ensemble-size", help="cars per MuJoCo model per task"),
+        quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress bar"),
+    ):
+        """Run a sweep (grids, lists, random samples, Monte Carlo seeds) on local processes or Dask."""
+        from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+        from rich.table import Table
+
+        from ..batch import run_batch
+        from ..cli import console, err_console, fail, guarded
+
+        if scheduler and dask_local:
+            fail("give either --scheduler or --dask-local, not both")
+
+        def go():
+            with Progress(TextColumn("[bold]runs"), BarColumn(), MofNCompleteColumn(), TextColumn("•"),
+                          TimeElapsedColumn(), TextColumn("eta"), TimeRemainingColumn(), console=err_console,
+                          disable=quiet or not sys.stderr.isatty()) as prog:
+                task = prog.add_task("runs", total=None)
+
+                def progress(done, total):
+                    prog.update(task, completed=done, total=total)
+
+                rep = run_batch(sweep, out=out, workers=workers, scheduler=scheduler, dask_local=dask_local,
+                                resume=resume, ensemble_size=ensemble_size, progress=progress)
+            df = rep.summary
+            counts = ", ".join(f"{k} {v}" for k, v in sorted(rep.counts.items()))
+            console.print(f"[bold]{rep.n_total}[/] runs ({rep.n_run} computed, {rep.n_skipped} already done) on "
+                          f"{rep.engine} in {rep.wall:.1f} s: {counts or 'nothing run'}")
+            if df is not None and len(df):
+                ok = df[df["status"] == "ok"]
+                cols = [f"metric.{k}" for k in KEY_METRICS if f"metric.{k}" in df.columns]
+                if len(ok) and cols:
+                    t = Table(title="metrics over ok runs")
+                    for h in ("metric", "min", "mean", "max"):
+                        t.add_column(h, justify="right" if h != "metric" else "left")
+                    for c in cols:
+                        v = ok[c]
+                        t.add_row(c[7:], f"{v.min():.4g}", f"{v.mean():.4g}", f"{v.max():.4g}")
+                    console.print(t)
+                bad = df[df["status"] != "ok"]
+                for _, r in bad.head(5).iterrows():
+                    console.print(f"  [red]{r['status']}[/] run {r['run_id']}: {str(r['error'])[:160]}",
+                                  highlight=False)
+                if len(bad) > 5:
+                    console.print(f"  ... {len(bad) - 5} more failed runs (see the 'error' column)")
+            console.print(f"summary: [bold]{rep.out / 'summary.parquet'}[/]")
+            if rep.counts and set(rep.counts) - {"ok"}:
+                raise typer.Exit(1)
+
+        guarded(go)
