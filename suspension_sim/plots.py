@@ -204,10 +204,17 @@ def plot_run(results, out_dir) -> list[Path]:
         written.append(_save(plot_psd_comparison(results, "body_acc"), out_dir / "body_acc_psd.png"))
 
     def gaps(ax, s, have, col):
-        g = {r.info.get("stop_gap", {}).get(s) for _, r in have} - {None}
-        for i, v in enumerate(sorted(g)):
-            ax.axhline(1000 * v, color="k", ls="--", lw=0.7, label="bump-stop gap" if i == 0 else None)
-            ax.axhline(-1000 * v, color="k", ls="--", lw=0.7)
+        g = set()
+        for _, r in have:
+            sides = (r.info.get("stop_gap_sides") or {}).get(s)
+            gap = (r.info.get("stop_gap") or {}).get(s)
+            if sides is None and gap is not None:
+                sides = (gap, gap)
+            if sides is not None:
+                g.add((-float(sides[0]), float(sides[1])))
+        for i, (lo, hi) in enumerate(sorted(g)):
+            ax.axhline(1000 * hi, color="k", ls="--", lw=0.7, label="bump stops" if i == 0 else None)
+            ax.axhline(1000 * lo, color="k", ls="--", lw=0.7)
 
     written.append(_time_series(results, out_dir, "suspension_travel.png", "Suspension travel (+ = extension)",
                                 "travel", "travel (mm)", scale=1000.0, decorate=gaps))

@@ -127,6 +127,7 @@ class Result:
             "static_tire_force": {s: float(P.static_tire[i, c]) for c, s in enumerate(P.suffixes)},
             "static_suspension_force": {s: float(P.static_susp[i, c]) for c, s in enumerate(P.suffixes)},
             "stop_gap": _stop_gaps(sim, i),
+            "stop_gap_sides": _stop_gap_sides(sim, i),
             "full_state_access": bool(sim.full_state),
             "wall_time_s": wall / P.n,
             "ensemble_size": P.n,
@@ -156,6 +157,19 @@ def _stop_gaps(sim, i) -> dict:
             g = np.broadcast_to(np.asarray(gap, dtype=float), (sim.plant.n, len(sel)))
             for k, c in enumerate(sel):
                 out[sim.plant.suffixes[c]] = float(g[i, k])
+    return out
+
+
+def _stop_gap_sides(sim, i) -> dict:
+    """suffix -> [compression gap, extension gap] (m) of a bump_stop effect (they may differ)."""
+    out = {}
+    for eff, sel in sim.effects:
+        g_c, g_e = getattr(eff, "g_c", None), getattr(eff, "g_e", None)
+        if eff.name == "bump_stop" and g_c is not None and g_e is not None:
+            g_c = np.broadcast_to(np.asarray(g_c, dtype=float), (sim.plant.n, len(sel)))
+            g_e = np.broadcast_to(np.asarray(g_e, dtype=float), (sim.plant.n, len(sel)))
+            for k, c in enumerate(sel):
+                out[sim.plant.suffixes[c]] = [float(g_c[i, k]), float(g_e[i, k])]
     return out
 
 

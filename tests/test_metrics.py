@@ -194,3 +194,31 @@ def test_compute_metrics_skips_metrics_without_their_channels():
     assert {"body_acc_rms", "body_acc_wk_rms", "travel_rms", "actuator_energy"} <= set(m)
     assert not any(k.startswith(("tire_", "wheel_", "pitch", "roll")) for k in m)
     assert m["actuator_energy"] == 0.0
+
+
+def test_time_on_asymmetric_stops():
+    A, g_c, g_e = 0.04, 0.02, 0.035
+    run = _view({"travel": lambda t: A * np.sin(2 * np.pi * 1.0 * t)}, T=10.0, gap={"": g_c})
+    run.info = {"stop_gap_sides": {"": [g_c, g_e]}}
+    m = METRICS.get("suspension_travel")(run)
+    expect = (0.5 - math.asin(g_c / A) / math.pi) + (0.5 - math.asin(g_e / A) / math.pi)
+    assert m["travel_stop_fraction"] == pytest.approx(expect, abs=2e-3)
+
+
+def test_stop_metrics_from_a_simulated_bump_stop_run():
+    # a 1.5 Hz, ±30 mm road on the quarter car against 5 mm / 8 mm free travel: the run records both gaps,
+    # and the stop time equals the share of logged samples beyond them
+    import suspension_sim as ss
+    from suspension_sim.config import parse_scenario
+
+    sc = parse_scenario({"road": {"type": "sine", "params": {"frequency": 1.5, "amplitude": 0.03}},
+                         "vehicle": {"effects": [{"type": "bump_stop", "params": {
+                             "gap": 0.005, "gap_extension": 0.008, "stiffness": 20000.0}}]},
+                         "sim": {"duration": 2.0}})
+    r = ss.simulate(sc)
+    assert r.info["stop_gap_sides"][""] == [0.005, 0.008]
+    x = r.ts["travel"].to_numpy()
+    share = np.mean((x < -0.005) | (x > 0.008))
+    assert 0 < share < 1
+    assert r.metrics["travel_stop_fraction"] == pytest.approx(share)
+    assert r.metrics["travel_stop_time"] == pytest.approx(share * 2.0, rel=1e-3)
