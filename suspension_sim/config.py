@@ -181,8 +181,13 @@ class Scenario(_Strict):
 
 
 def deep_merge(base: dict, over: dict) -> dict:
+    """Merge a variant's overrides into the base scenario. A component whose ``type`` changes is replaced
+    whole (its old params would not fit the new type); ``params`` of the same type are updated key by key."""
     for k, v in over.items():
-        if isinstance(v, dict) and isinstance(base.get(k), dict) and k != "params":
+        if (isinstance(v, dict) and isinstance(base.get(k), dict) and "type" in v
+                and v["type"] != base[k].get("type")):
+            base[k] = v
+        elif isinstance(v, dict) and isinstance(base.get(k), dict) and k != "params":
             deep_merge(base[k], v)
         elif isinstance(v, dict) and isinstance(base.get(k), dict) and k == "params":
             base[k] = {**base[k], **v}
