@@ -51,6 +51,7 @@ Quantities (ISO 2631-1 §6)
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 from scipy import integrate, signal
@@ -111,6 +112,11 @@ def iso2631_weighting(freq, name: str = "Wk", complex_response: bool = False):
 def weighting_sos(fs: float, name: str = "Wk") -> np.ndarray:
     """Second-order sections of the digital weighting filter at sample rate ``fs`` (Hz): each analog section
     discretised by the bilinear transform prewarped at its characteristic frequency (kept below 0.45·fs)."""
+    return _weighting_sos(float(fs), name).copy()
+
+
+@lru_cache(maxsize=64)
+def _weighting_sos(fs: float, name: str) -> np.ndarray:
     sos = []
     for b, a, fp in analog_sections(name):
         fp = min(fp, 0.45 * fs)
@@ -129,9 +135,9 @@ def weighted(x, fs: float, name: str = "Wk") -> np.ndarray:
         return x.copy()
     up = max(1, int(math.ceil(MIN_FILTER_RATE / fs - 1e-9)))
     if up == 1:
-        return signal.sosfilt(weighting_sos(fs, name), x)
+        return signal.sosfilt(_weighting_sos(float(fs), name), x)
     xu = signal.resample_poly(x, up, 1, padtype="line")
-    return signal.sosfilt(weighting_sos(fs * up, name), xu)[::up][: x.size]
+    return signal.sosfilt(_weighting_sos(float(fs * up), name), xu)[::up][: x.size]
 
 
 def vdv(aw, fs: float) -> float:
