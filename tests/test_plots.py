@@ -13,7 +13,7 @@ STANDARD = {"body_acceleration.png", "body_acc_psd.png", "suspension_travel.png"
             "actuator_force.png"}
 
 
-def _pair(model: str, duration: float = 1.5) -> dict:
+def _pair(model: str, duration: float = 1.0) -> dict:
     base = {"name": f"{model}_plot", "vehicle": {"model": model},
             "road": {"type": "sine", "params": {"frequency": 2.0, "amplitude": 0.01}},
             "sensors": [{"type": "corner_body_vel"}], "sim": {"duration": duration}}
@@ -30,8 +30,13 @@ def _check_png(p):
     assert img[..., :3].std() > 0.01  # not a blank canvas
 
 
-def test_quarter_car_passive_vs_skyhook(tmp_path):
-    res = _pair("quarter_car")
+@pytest.fixture(scope="module")
+def quarter_pair():
+    return _pair("quarter_car")
+
+
+def test_quarter_car_passive_vs_skyhook(tmp_path, quarter_pair):
+    res = quarter_pair
     written = plot_run(res, tmp_path / "plots")
     names = {p.name for p in written}
     assert names == STANDARD  # no pitch/roll in a quarter car
@@ -50,8 +55,8 @@ def test_half_car_has_corner_subplots_and_attitude(tmp_path):
     assert h["suspension_travel.png"] > 1.5 * h["body_acceleration.png"]
 
 
-def test_write_result_writes_plots(tmp_path):
-    r = _pair("quarter_car", duration=0.5)["skyhook"]
+def test_write_result_writes_plots(tmp_path, quarter_pair):
+    r = quarter_pair["skyhook"]
     write_result(r, tmp_path / "run")
     assert {p.name for p in (tmp_path / "run" / "plots").glob("*.png")} == STANDARD
 
