@@ -102,15 +102,16 @@ class GriddedProfile:
     def __init__(self, x0: float, dx: float, z: np.ndarray, fade_in: float = 0.0):
         z = np.asarray(z, dtype=float)
         xs = x0 + dx * np.arange(z.size)
-        if fade_in > 0:
-            z = z * cosine_window(xs, fade_in)
         self.x0, self.dx, self.x1 = float(x0), float(dx), float(xs[-1])
-        self.xs, self.z = xs, z
+        self.xs, self.z, self.fade_in = xs, z, float(fade_in)  # z: the unfaded samples
         self._spline = CubicSpline(xs, z)
 
     def __call__(self, x) -> np.ndarray:
-        x = np.clip(np.asarray(x, dtype=float), self.x0, self.x1)
-        return self._spline(x)
+        x = np.asarray(x, dtype=float)
+        z = self._spline(np.clip(x, self.x0, self.x1))
+        if self.fade_in > 0:  # applied after interpolation: exactly 0 behind the start line
+            z = z * cosine_window(x, self.fade_in)
+        return z
 
 
 def generation_range(ctx, margin: float) -> tuple[float, float]:
