@@ -1,0 +1,271 @@
+"""Open-loop command signals for rigs and system identification: a prescribed actuator command per corner,
+independent of any measurement (no sensors needed).
+
+    u(t) = offset + s(t − start)      for start <= t < stop,   offset otherwise
+
+with ``s`` one of
+
+- ``constant``: ``amplitude`` at all times (``start``/``stop`` ignored);
+- ``step``: ``amplitude`` from ``start`` on (back to ``offset`` at ``stop``: a pulse);
+- ``sine``: ``amplitude·sin(2π·frequency·τ + phase)``;
+- ``multisine``: ``amplitude·Σ_i a_i·sin(2π·f_i·τ + φ_i)`` over ``frequencies``, with ``a_i`` = ``amplitudes``
+  (default: all 1) and ``phases``: ``schroeder`` (low crest factor, φ_i = −π·i·(i−1)/N, i = 1..N), ``random`` (seeded) or
+  ``zero``;
+- ``chirp``: ``amplitude·scipy.signal.chirp(τ, f0, t1, f1, method)`` with the phase shifted by −90° so that
+  it starts at zero like the sine (``method``: linear, quadratic, logarithmic, hyperbolic);
+- ``prbs``: ``±amplitude`` following a maximum-length binary sequence (``scipy.signal.max_len_seq``, ``nbits``,
+  seeded initial register), one bit per ``hold`` seconds;
+- ``random``: seeded Gaussian white noise of standard deviation ``amplitude``, held for ``hold`` seconds
+  (default: one control step);
+- ``table``: a recorded signal from a CSV file with columns ``time_column`` (s) and ``column`` (or one column
+  per corner), interpolated (``linear`` or ``previous`` = zero-order hold), held at the end values outside
+  the table, multiplied by ``amplitude``; table time 0 is ``start``.  A relative ``file`` is relative to the
+  working directory.
+
+``amplitude`` and ``offset`` may be one value or one per corner (e.g. ``amplitude: [500, 0]`` drives only
+the front of a half car).  ``fade_in`` (s) ramps the signal in with a half cosine from ``start``.  The
+random signals are the same on every corner unless ``independent: true``.  The command's unit is the
+actuator's (N for a force actuator).
+"""
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+from typing import Literal, Optional, Union
+
+import numpy as np
+from pydantic import Field, model_validator
+from scipy.signal import chirp, max_len_seq
+
+from suspension_sim.components import Params
+from suspension_sim.errors import ScenarioError
+from suspension_sim.registry import CONTROLLERS
+
+from .base import Controller
+
+Num = Union[float, list[float]]
+
+
+class OpenLoopParams(Params):
+    signal: Literal["constant", "step", "sine", "multisine", "chirp", "prbs", "random", "table"] = "sine"
+    amplitude: Num = Field(1.0, description="amplitude (command unit), one value or one per corner")
+    offset: Num = Field(0.0, description="constant added at all times, one value or one per corner")
+    start: float = Field(0.0, ge=0, description="s, signal start")
+    stop: Optional[float] = Field(None, gt=0, description="s, signal end (offset only afterwards)")
+    fade_in: float = Field(0.0, ge=0, description="s, half-cosine fade-in from start")
+    frequency: Optional[float] = Field(None, gt=0, description="Hz (sine)")
+    phase: float = Field(0.0, description="rad (sine, chirp)")
+    frequencies: Optional[list[float]] = Field(None, description="Hz (multisine lines)")
+    amplitudes: Optional[list[float]] = Field(None, description="per line, times amplitude (multisine; default: all 1)")
+    phases: Union[Literal["schroeder", "random", "zero"], list[float]] = Field(
+        "schroeder", description="multisine phases: schroeder, random, zero or a list (rad)")
+    f0: Optional[float] = Field(None, gt=0, description="Hz, chirp start frequency")
+    f1: Optional[float] = Field(None, gt=0, description="Hz, chirp frequency reached at t1")
+    t1: Optional[float] = Field(None, gt=0, description="s after start at which the chirp reaches f1")
+    method: Literal["linear", "quadratic", "logarithmic", "hyperbolic"] = "linear"
+    hold: Optional[float] = Field(None, gt=0, description="s per bit (prbs) or sample (random); default control_dt")
+    nbits: int = Field(10, ge=2, le=31, description="prbs register length: period 2^nbits − 1 bits")
+    seed: int = Field(0, description="seed of prbs, random and random multisine phases")
+    independent: bool = Field(False, description="independent random sequences per corner")
+    file: Optional[str] = Field(None, description="CSV file (table)")
+    time_column: str = Field("time", description="table time column (s)")
+    column: Union[str, list[str]] = Field("value", description="table value column, or one per corner")
+    interpolation: Literal["linear", "previous"] = "linear"
+
+    @model_validator(mode="after")
+    def _needs(self):
+        need = {"sine": ["frequency"], "multisine": ["frequencies"], "chirp": ["f0", "f1", "t1"], "table": ["file"]}
+        missing = [k for k in need.get(self.signal, []) if getattr(self, k) is None]
+        if missing:
+            raise ValueError(f"signal '{self.signal}' needs {', '.join(missing)}")
+        if self.signal == "multisine":
+            if not self.frequencies or any(f <= 0 for f in self.frequencies):
+                raise ValueError("frequencies must be a non-empty list of positive values (Hz)")
+            for name in ("amplitudes", "phases"):
+                v = getattr(self, name)
+                if isinstance(v, list) and len(v) != len(self.frequencies):
+                    raise ValueError(f"{name} needs one value per frequency ({len(self.frequencies)})")
+        if self.stop is not None and self.stop <= self.start:
+            raise ValueError("stop must be after start")
+        if self.signal == "table":
+            cols = [self.column] if isinstance(self.column, str) else list(self.column)
+            load_table(self.file, self.time_column, tuple(cols))  # a bad file fails validation
+        return self
+
+
+def _csv_error(path, msg):
+    return ScenarioError(msg, source=f"table file {path}")
+
+
+def load_table(path: str, time_column: str, columns: tuple[str, ...]):
+    """(time array, values (len, n_columns)) of a CSV command table; bad files raise a one-line error."""
+    p = Path(path)
+    try:
+        mtime = p.stat().st_mtime
+    except OSError:
+        raise _csv_error(path, "file not found") from None
+    return _load_table(str(p), mtime, time_column, columns)
+
+
+@lru_cache(maxsize=32)
+def _load_table(path, mtime, time_column, columns):
+    import pandas as pd
+
+    try:
+        df = pd.read_csv(path)
+    except Exception as err:  # noqa: BLE001 - any parse failure is the user's file
+        raise _csv_error(path, f"not a readable CSV ({type(err).__name__}: {str(err).splitlines()[0]})") from None
+    have = [str(c) for c in df.columns]
+    for c in (time_column, *columns):
+        if c not in df.columns:
+            raise _csv_error(path, f"no column {c!r} (has: {', '.join(have)})")
+    out = []
+    for c in (time_column, *columns):
+        v = pd.to_numeric(df[c], errors="coerce").to_numpy(dtype=float)
+        bad = np.flatnonzero(~np.isfinite(v))
+        if bad.size:
+            raise _csv_error(path, f"column {c!r}: non-numeric or missing value at data row {bad[0] + 1}")
+        out.append(v)
+    t = out[0]
+    if t.size < 2:
+        raise _csv_error(path, "needs at least two rows")
+    if np.any(np.diff(t) <= 0):
+        i = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 2
+        raise _csv_error(path, f"column {time_column!r}: times must increase (data row {i})")
+    return t, np.column_stack(out[1:])
+
+
+@CONTROLLERS.register("open_loop")
+class OpenLoop(Controller):
+    """Open-loop command: constant, step, sine, multisine, chirp, PRBS, random or a CSV table (no sensors)."""
+
+    Params = OpenLoopParams
+    requires = ()
+
+    def _corner_array(self, name):
+        n, nc = self.ctx.n_cars, self.ctx.n_corners
+        a = np.asarray(getattr(self.p, name), dtype=float)
+        a = a.reshape(1, -1) if a.ndim <= 1 else a.reshape(a.shape[0], -1)  # a list shared by the cars: one row
+        if a.shape[0] not in (1, n) or a.shape[1] not in (1, nc):
+            raise ScenarioError(f"needs one value or one per corner ({nc})", field=f"controller.params.{name}")
+        return np.broadcast_to(a, (n, nc)).astype(float)
+
+    def reset(self):
+        p, n, nc = self.p, self.ctx.n_cars, self.ctx.n_corners
+        self.amp = self._corner_array("amplitude")
+        self.off = self._corner_array("offset")
+        self.sig = self.p.signal if isinstance(self.p.signal, str) else None
+        if self.sig is None:
+            raise ScenarioError("all cars of an ensemble must use the same signal type", field="controller.params.signal")
+        col = lambda v: np.asarray(v, dtype=float).reshape(-1, 1) if v is not None else None  # noqa: E731
+        self.start_ = col(p.start)
+        self.stop_ = col(p.stop) if p.stop is not None else None
+        self.fade = col(p.fade_in)
+        seeds = np.asarray(p.seed, dtype=float).reshape(-1)
+        seeds = np.broadcast_to(seeds, (n,)).astype(np.int64)
+        self.rngs = [np.random.default_rng([int(s) & 0xFFFFFFFF, 4242]) for s in seeds]
+        k = nc if p.independent else 1
+        self.hold = col(p.hold) if p.hold is not None else np.full((n, 1), self.ctx.control_dt)
+        if self.sig == "multisine":
+            f = self._lines("frequencies")
+            a = self._lines("amplitudes") if p.amplitudes is not None else np.ones_like(f)
+            if p.phases == "schroeder":
+                L = f.shape[1]
+                i = np.arange(1, L + 1)
+                ph = np.broadcast_to(-np.pi * i * (i - 1) / L, f.shape)
+            elif p.phases == "random":
+                ph = np.stack([r.uniform(-np.pi, np.pi, f.shape[1]) for r in self.rngs])
+            elif p.phases == "zero":
+                ph = np.zeros_like(f)
+            else:
+                ph = self._lines("phases")
+            self.ms = (f, a, ph)  # (n, L) each
+        elif self.sig == "prbs":
+            seqs = []
+            for i, r in enumerate(self.rngs):
+                nb = int(np.asarray(p.nbits).reshape(-1)[0])
+                cols = []
+                for _ in range(k):
+                    state = r.integers(0, 2, nb)
+                    if not state.any():
+                        state[0] = 1
+                    cols.append(2.0 * max_len_seq(nb, state=state)[0] - 1.0)
+                seqs.append(np.stack(cols, axis=1))  # (period, k)
+            self.seq = seqs
+        elif self.sig == "random":
+            self.k = k
+            self.noise = [np.zeros((0, k)) for _ in range(n)]
+        elif self.sig == "table":
+            files = [p.file] * n if isinstance(p.file, str) else list(p.file)
+            self.tables = []
+            for i in range(n):
+                cols = p.column if isinstance(p.column, str) else p.column
+                cols = (cols,) if isinstance(cols, str) else tuple(cols)
+                if len(cols) not in (1, nc):
+                    raise ScenarioError(f"needs one column or one per corner ({nc})", field="controller.params.column")
+                t, v = load_table(files[i], p.time_column, cols)
+                self.tables.append((t, v))
+
+    def _lines(self, name):
+        v = getattr(self.p, name)
+        a = np.asarray(v, dtype=float)
+        if a.ndim == 1:
+            a = np.broadcast_to(a, (self.ctx.n_cars, a.size))
+        return a.reshape(self.ctx.n_cars, -1)
+
+    def _shape(self, tau):
+        """s(τ) before amplitude/offset/gating: (n, 1) or (n, nc); tau (n, 1) >= 0 where active."""
+        p, n, nc = self.p, self.ctx.n_cars, self.ctx.n_corners
+        s = self.sig
+        if s in ("constant", "step"):
+            return np.ones((n, 1))
+        if s == "sine":
+            return np.sin(2 * np.pi * np.asarray(p.frequency, dtype=float).reshape(-1, 1) * tau
+                          + np.asarray(p.phase, dtype=float).reshape(-1, 1))
+        if s == "multisine":
+            f, a, ph = self.ms
+            return np.sum(a * np.sin(2 * np.pi * f * tau + ph), axis=1, keepdims=True)
+        if s == "chirp":
+            out = np.empty((n, 1))
+            f0, f1, t1, ph = (np.broadcast_to(np.asarray(getattr(p, k), dtype=float).reshape(-1), (n,))
+                              for k in ("f0", "f1", "t1", "phase"))
+            for i in range(n):
+                out[i, 0] = chirp(float(tau[i, 0]), f0[i], t1[i], f1[i], method=p.method,
+                                  phi=np.degrees(ph[i]) - 90.0)
+            return out
+        idx = np.floor(tau[:, 0] / self.hold[:, 0] + 1e-9).astype(np.int64)
+        if s == "prbs":
+            return np.stack([q[j % len(q)] for q, j in zip(self.seq, idx)])
+        if s == "random":
+            out = []
+            for i in range(n):
+                while idx[i] >= len(self.noise[i]):
+                    self.noise[i] = np.concatenate([self.noise[i], self.rngs[i].standard_normal((1024, self.k))])
+                out.append(self.noise[i][max(idx[i], 0)])
+            return np.stack(out)
+        if s == "table":
+            rows = []
+            for i, (tt, vv) in enumerate(self.tables):
+                x = float(tau[i, 0])
+                if p.interpolation == "previous":
+                    j = int(np.clip(np.searchsorted(tt, x, side="right") - 1, 0, len(tt) - 1))
+                    rows.append(vv[j])
+                else:
+                    rows.append(np.array([np.interp(x, tt, vv[:, c]) for c in range(vv.shape[1])]))
+            return np.stack(rows)
+        raise AssertionError(s)
+
+    def step(self, t, y):
+        n, nc = self.ctx.n_cars, self.ctx.n_corners
+        tau = t - self.start_  # (n, 1)
+        if self.sig == "constant":
+            return self.off + self.amp
+        active = tau >= 0
+        if self.stop_ is not None:
+            active &= t < self.stop_
+        s = self._shape(np.maximum(tau, 0.0))
+        if np.any(self.fade > 0):
+            w = np.where(self.fade > 0, 0.5 - 0.5 * np.cos(np.pi * np.clip(tau / np.maximum(self.fade, 1e-300), 0, 1)), 1.0)
+            s = s * w
+        u = self.off + np.where(active, self.amp * s, 0.0)
+        return np.broadcast_to(u, (n, nc)).copy()
