@@ -21,7 +21,8 @@ with the parameters of the standard's Annex A table (recalled, see below):
 ====  ====  =====  ====  ====  ====  ====  ====  ====  ====
 
 Note: the upward step of Wk goes from 2.37 Hz to **3.35 Hz** (f6 = 3.35, not 2.37: with f5 = f6 the step
-would vanish, and Wk would be 0.82 instead of 1.04 at 5 Hz).  The parameters were recalled from the standard
+would vanish and Wk would be 0.99 instead of the tabulated 0.482 at 1 Hz — the step halves the weighting
+below about 2 Hz, (f5/f6)² = 0.50).  The parameters were recalled from the standard
 (no copy of it is in the project) and checked against the standard's one-third-octave table of Wk factors
 (ISO 2631-1:1997 Table 3, "principal frequency weightings", factors ×1000 at the nominal band frequencies,
 e.g. 1 Hz: 482, 4 Hz: 967, 5 Hz: 1039, 8 Hz: 1036, 16 Hz: 768): the analog function below reproduces every
