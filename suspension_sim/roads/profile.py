@@ -15,9 +15,10 @@ Processing, in order:
    shorter than its contact patch (≈ 0.1–0.2 m); profilometer traces sampled at 1 mm carry texture and
    sensor noise that would otherwise reach the model as large road velocities;
 3. the profile is placed so that its distance ``offset`` (m) lies under the front axle at the start line
-   (road x = 0), rests at its first value before that, and is faded in over ``fade_in`` m (default 0.5 m)
-   so the run starts at equilibrium; it is then evaluated at each wheel's distance x(t) (cubic spline
-   through the samples, so any speed, constant or varying, resamples it).
+   (road x = 0) and is faded in over ``fade_in`` m after it (default 0.5 m; the road is 0 behind the
+   start line, where the rear wheels stand), so the run starts at equilibrium; with ``fade_in: 0`` the
+   road behind the start line holds the value at ``offset``.  It is then evaluated at each wheel's
+   distance x(t) (cubic spline through the samples, so any speed, constant or varying, resamples it).
 
 Past the end of the profile (``beyond_end``): ``error`` (default: a run that needs more road than the file
 has stops before it starts, naming the lengths), ``hold`` (last value) or ``repeat`` (the processed
