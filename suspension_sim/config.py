@@ -128,13 +128,15 @@ class SimCfg(_Strict):
     max_displacement: float = Field(5.0, gt=0, description="divergence guard on |position| in m (or rad)")
     max_velocity: float = Field(200.0, gt=0, description="divergence guard on |velocity| in m/s")
 
-    @model_validator(mode="after")
-    def _multiples(self):
-        for name in ("control_dt", "log_dt"):
-            r = getattr(self, name) / self.dt
+    @field_validator("control_dt", "log_dt")
+    @classmethod
+    def _multiple_of_dt(cls, v, info):  # a field validator, so that the error names sim.control_dt / sim.log_dt
+        dt = info.data.get("dt")
+        if dt is not None:
+            r = v / dt
             if abs(r - round(r)) > 1e-6 or round(r) < 1:
-                raise ValueError(f"{name}={getattr(self, name)} must be a whole multiple of dt={self.dt}")
-        return self
+                raise ValueError(f"must be a whole multiple of dt={dt}")
+        return v
 
 
 class OutputsCfg(_Strict):
@@ -255,7 +257,15 @@ def parse_scenario(raw: dict, source: str | None = None, field_prefix: str = "")
         if field_prefix:
             field = f"{field_prefix}:{field}"
         raise ScenarioError(msg, source=source, field=field) from None
-    check_components(sc, source)
+    try:
+        check_components(sc, source)
+    except ScenarioError as err:
+        if not field_prefix:
+            raise
+        head = ": ".join(str(x) for x in (err.source, err.field) if x)  # re-raise naming the variant too
+        msg = str(err)[len(head) + 2:] if head and str(err).startswith(head + ": ") else str(err)
+        raise ScenarioError(msg, source=err.source or source,
+                            field=f"{field_prefix}:{err.field}" if err.field else field_prefix) from None
     return sc
 
 
