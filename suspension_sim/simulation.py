@@ -165,8 +165,11 @@ class Simulation:
 
         # time-varying parameters -----------------------------------------------------------------------
         self.variations = []
+        self._const_scratch = None  # MjData scratch for mj_setConst when a mass or inertia varies
         for vi, v in enumerate(sc0.vehicle.variations):
             fld, idx = P.variation_index(v.param)
+            if fld.startswith("body"):
+                self._const_scratch = mujoco.MjData(m)
             arr = getattr(m, fld).reshape(-1) if fld == "body_inertia" else getattr(m, fld)
             nominal = arr[idx].copy()
             cfgs = [s.vehicle.variations[vi] for s in self.scenarios]
@@ -227,6 +230,10 @@ class Simulation:
             for i, v in enumerate(cfgs):
                 vals[i] = _variation_value(v, t, nominal[i])
             arr[idx] = vals
+        if self._const_scratch is not None:
+            # MuJoCo precomputes the mass matrix of simple (slide-joint) bodies (dof_M0) in mj_setConst: without
+            # this a mass change would alter gravity but not inertia
+            mujoco.mj_setConst(self.plant.model, self._const_scratch)
 
     def _state(self, t, road, road_vel, acc, F_act, F_tire_eff) -> PlantState:
         P, d = self.plant, self.plant.data

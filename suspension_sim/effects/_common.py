@@ -1,0 +1,53 @@
+"""Helpers shared by the effect modules (not an effect itself: the leading underscore keeps it out of
+plugin discovery)."""
+from __future__ import annotations
+
+from typing import Annotated, Union
+
+import numpy as np
+from pydantic import Field
+
+from ..errors import ScenarioError
+
+GRAVITY = 9.81
+
+NonNegative = Annotated[float, Field(ge=0)]
+Positive = Annotated[float, Field(gt=0)]
+# a value for every corner of the effect, or one list entry per corner
+PerCornerNonNeg = Union[NonNegative, list[NonNegative]]
+PerCornerPos = Union[Positive, list[Positive]]
+PerCornerReal = Union[float, list[float]]
+
+
+def corner_array(effect, name: str) -> np.ndarray:
+    """Parameter ``name`` of ``effect`` as a float array of shape ``(n_cars, n_sel)``.
+
+    Scalars broadcast; a per-corner list must have one entry per corner the effect applies to."""
+    value = getattr(effect.p, name)
+    n, k = effect.ctx.n_cars, len(effect.ctx.corners)
+    arr = np.asarray(value, dtype=float) if not isinstance(value, list) or _flat(value) else None
+    if arr is None or arr.ndim > 2 or (arr.ndim == 2 and arr.shape[1] not in (1, k)):
+        raise ScenarioError(f"needs one value or a list of {k} values (one per corner: {effect.ctx.corners})",
+                            field=f"effects.{effect.name}.params.{name}")
+    if arr.ndim == 0:
+        arr = arr.reshape(1, 1)
+    elif arr.ndim == 1:  # an unstacked per-corner list
+        if arr.size != k:
+            raise ScenarioError(f"needs {k} values (one per corner: {effect.ctx.corners}), got {arr.size}",
+                                field=f"effects.{effect.name}.params.{name}")
+        arr = arr.reshape(1, k)
+    return np.broadcast_to(arr, (n, k)).astype(float)
+
+
+def _flat(v) -> bool:
+    return all(isinstance(x, (int, float)) for x in v)
+
+
+def reduced_mass(ctx) -> np.ndarray:
+    """Effective mass (kg) of the relative body–wheel motion of each corner, ``1/(1/m_s + 1/m_u)``, with the
+    corner's sprung and unsprung shares estimated from the static loads (exact for the quarter car; an
+    estimate for models with pitch/roll, used only for step-size checks)."""
+    ms = np.asarray(ctx.static_suspension_force, dtype=float) / GRAVITY
+    mt = np.asarray(ctx.static_tire_force, dtype=float) / GRAVITY
+    mu = np.where(mt > ms, mt - ms, np.inf)  # no tire (SDOF rig): the base is rigid
+    return 1.0 / (1.0 / np.maximum(ms, 1e-9) + 1.0 / mu)

@@ -1,0 +1,104 @@
+"""Asymmetric damping: separate compression and rebound coefficients, or a force–velocity damper map."""
+from __future__ import annotations
+
+from typing import Optional
+
+import numpy as np
+from pydantic import Field, field_validator, model_validator
+
+from ..components import Params
+from ..errors import ScenarioError
+from ..registry import EFFECTS
+from ._common import PerCornerNonNeg, corner_array
+from .base import Effect
+
+
+class AsymmetricDampingParams(Params):
+    c_comp: PerCornerNonNeg = Field(0.0, description="compression damping in N·s/m (travel rate < 0)")
+    c_reb: PerCornerNonNeg = Field(0.0, description="rebound (extension) damping in N·s/m (travel rate > 0)")
+    table: Optional[list[tuple[float, float]]] = Field(
+        None, description="damper map: [[v, F], ...] points, v = travel rate in m/s (positive = rebound/"
+        "extension), F = the damper's resisting force in N (same sign as v); interpolated linearly, extended "
+        "linearly beyond the end points. Replaces c_comp/c_reb.")
+
+    @field_validator("table")
+    @classmethod
+    def _table(cls, tab):
+        if tab is None:
+            return tab
+        if len(tab) < 2:
+            raise ValueError("a damper map needs at least two [v, F] points")
+        vs = [p[0] for p in tab]
+        if any(b <= a for a, b in zip(vs, vs[1:])):
+            raise ValueError("damper map velocities must increase strictly")
+        return tab
+
+    @model_validator(mode="after")
+    def _either(self):
+        if self.table is not None and (_nonzero(self.c_comp) or _nonzero(self.c_reb)):
+            raise ValueError("give either c_comp/c_reb or a table, not both")
+        return self
+
+
+def _nonzero(v) -> bool:
+    return any(x != 0 for x in (v if isinstance(v, list) else [v]))
+
+
+def interp_linear_extrap(x: np.ndarray, xp: np.ndarray, fp: np.ndarray) -> np.ndarray:
+    """Piecewise-linear interpolation through (xp, fp), continued linearly with the end segments' slopes."""
+    y = np.interp(x, xp, fp)
+    lo_slope = (fp[1] - fp[0]) / (xp[1] - xp[0])
+    hi_slope = (fp[-1] - fp[-2]) / (xp[-1] - xp[-2])
+    y = np.where(x < xp[0], fp[0] + lo_slope * (x - xp[0]), y)
+    return np.where(x > xp[-1], fp[-1] + hi_slope * (x - xp[-1]), y)
+
+
+@EFFECTS.register("asymmetric_damping")
+class AsymmetricDamping(Effect):
+    """Damper with different compression and rebound rates (c_comp, c_reb) or a measured force–velocity map.
+
+    Force law (travel rate ``v``, positive = extension/rebound; positive F pushes the body up):
+
+    - coefficients: ``F = −c_reb·v`` for ``v > 0`` (rebound), ``F = −c_comp·v`` for ``v < 0`` (compression);
+    - map: ``F = −R(v)`` where ``R`` interpolates the ``table`` points ``[v, R]`` linearly and continues the
+      first/last segment linearly beyond them.  ``R`` is the force the damper resists with (same sign as v:
+      rebound forces positive, compression forces negative, as on a damper dyno plotted against extension
+      velocity).  A map should pass through (0, 0); a non-zero R(0) acts as a constant force.
+
+    It *adds* to the vehicle's linear damper (``vehicle.params.damping``); to replace the linear damper by
+    this one, set that damping to 0.
+
+    Signature in measured data: the residual force against travel rate has a kink at v = 0 (different slopes
+    in compression and rebound), or follows the shape of the map (digressive/progressive knees).  Under a
+    symmetric input the mean travel drifts ("jacking"): with more rebound than compression damping the
+    suspension packs down (mean travel < 0) on rough roads; the travel response is skewed.
+    """
+
+    Params = AsymmetricDampingParams
+    target = "suspension"
+    signature = ("residual force vs travel rate has a kink at v=0 (different compression/rebound slopes) or a "
+                 "map shape; mean travel drifts (jacking/packing down) under symmetric excitation")
+
+    def reset(self):
+        self.c_comp = corner_array(self, "c_comp")
+        self.c_reb = corner_array(self, "c_reb")
+        tab = self.p.table
+        self.tables = None
+        if tab is not None:
+            arr = [np.asarray(t, dtype=float) for t in (tab if _per_car(tab) else [tab] * self.ctx.n_cars)]
+            if len(arr) != self.ctx.n_cars:
+                raise ScenarioError("one damper map per car expected", field=f"effects.{self.name}.params.table")
+            self.tables = arr
+
+    def force(self, s, v, t, dt):
+        if self.tables is None:
+            return -np.where(v > 0, self.c_reb, self.c_comp) * v
+        out = np.empty_like(v, dtype=float)
+        for i, tab in enumerate(self.tables):
+            out[i] = -interp_linear_extrap(v[i], tab[:, 0], tab[:, 1])
+        return out
+
+
+def _per_car(tab) -> bool:
+    """True when the stacked parameter is a list of tables (cars with different maps)."""
+    return bool(tab) and isinstance(tab[0], (list, tuple)) and bool(tab[0]) and isinstance(tab[0][0], (list, tuple))

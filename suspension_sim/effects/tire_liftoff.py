@@ -1,0 +1,49 @@
+"""Tire lift-off: the tire pushes but never pulls (total tire force ≥ 0)."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..registry import EFFECTS
+from .base import Effect
+
+
+@EFFECTS.register("tire_liftoff")
+class TireLiftoff(Effect):
+    """Unilateral tire contact: the total tire force (static load included) never becomes negative.
+
+    Force law (target = tire): the linear tire gives the wheel ``F_lin = F_static − k_t·x − c_t·ẋ`` in total,
+    with ``x`` = wheel − road from equilibrium (m), ``F_static`` the static tire load, ``k_t``/``c_t`` the
+    tire stiffness and damping (from the vehicle parameters).  This effect adds the correction
+    ``ΔF = max(0, −F_lin) = max(0, k_t·x + c_t·ẋ − F_static)`` (positive pushes the wheel up), so the total
+    tire force is ``max(0, F_lin)``: the wheel leaves the road when the dynamic load would exceed the static
+    load in tension, flies under gravity and the suspension force, and lands when the tire is compressed
+    again.  Lift-off is decided on the force (with tire damping a fast-rebounding tire can lose load while
+    still touching); with ``c_t = 0`` this is the geometric condition ``x > F_static/k_t``.  No parameters:
+    it uses the vehicle's nominal tire stiffness, damping and static load (a time-varying tire stiffness or
+    mass is not followed).
+
+    Signature in measured data: the tire force is clipped at zero (dynamic tire load flat at −static load),
+    the wheel acceleration sits near −g + F_susp/m_u during the flights, and landings give impacts in wheel
+    and body acceleration; appears only on large inputs near the wheel-hop frequency (10–15 Hz) or on
+    sharp bumps, and a linear model predicts negative (pulling) tire forces there.
+    """
+
+    target = "tire"
+    signature = ("tire force clipped at zero total load (dynamic load flat at −static); wheel in free flight, "
+                 "landing impacts; only on large inputs near wheel hop")
+
+    def reset(self):
+        n, k = self.ctx.n_cars, len(self.ctx.corners)
+        self.Fs = np.broadcast_to(np.asarray(self.ctx.static_tire_force, dtype=float), (n, k))
+        self.kt = np.broadcast_to(np.asarray(self.ctx.tire_stiffness, dtype=float), (n, k))
+        self.ct = np.broadcast_to(np.asarray(self.ctx.tire_damping, dtype=float), (n, k))
+        self.lifted = np.zeros((n, k))
+
+    def force(self, s, v, t, dt):
+        pull = self.kt * s + self.ct * v - self.Fs
+        self.lifted = (pull > 0).astype(float)
+        return np.maximum(0.0, pull)
+
+    def signals(self):
+        """``lifted``: 1 while the wheel is off the road."""
+        return {"lifted": self.lifted}
