@@ -124,6 +124,10 @@ class Result:
             "model": P.vcls.name,
             "suffixes": P.suffixes,
             "corners": [c.name for c in P.corners],
+            # corner geometry (m; x forward from the c.g., y left) and road track, for the 3D viewer
+            "corner_x": [float(c.x) for c in P.corners],
+            "corner_y": [float(c.y) for c in P.corners],
+            "corner_track": [int(c.track) for c in P.corners],
             "static_tire_force": {s: float(P.static_tire[i, c]) for c, s in enumerate(P.suffixes)},
             "static_suspension_force": {s: float(P.static_susp[i, c]) for c, s in enumerate(P.suffixes)},
             "stop_gap": _stop_gaps(sim, i),
@@ -205,7 +209,8 @@ def versions() -> dict:
 
 
 def write_result(result: Result, out: Path, plots: bool = True, timeseries: bool = True) -> Path:
-    """Write ``timeseries.parquet``, ``summary.json``, ``scenario.resolved.yaml`` and ``plots/*.png``."""
+    """Write ``timeseries.parquet``, ``summary.json``, ``scenario.resolved.yaml`` and ``plots/*.png`` (and
+    ``viewer.html`` / ``report.html`` when the scenario's ``outputs.viewer`` / ``outputs.report`` are set)."""
     import yaml
 
     out = Path(out)
@@ -224,4 +229,13 @@ def write_result(result: Result, out: Path, plots: bool = True, timeseries: bool
         from .plots import plot_run
 
         plot_run({result.scenario.name: result}, out / "plots")
+    outputs = getattr(result.scenario, "outputs", None)
+    if getattr(outputs, "viewer", False):  # self-contained 3D view (suspension_sim.viewer)
+        from .viewer import write_viewer
+
+        write_viewer(result, out / "viewer.html")
+    if getattr(outputs, "report", False):  # metrics, plots and the 3D view in one page (suspension_sim.report)
+        from .report import write_report
+
+        write_report(out, result=result)
     return out

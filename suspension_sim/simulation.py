@@ -108,6 +108,9 @@ class Simulation:
                                 "sensors and timing", source=source)
         self.scenarios = list(scenarios)
         self.source = source
+        # callables hook(logger, j, t) run after each logged step j (time t), e.g. the live 3D viewer
+        # (suspension_sim.viewer.attach_live_viewer); logger.ch[name][car, j] holds the step's log channels
+        self.log_hooks: list = []
         sc0 = self.scenarios[0]
         sim = sc0.sim
         self.dt, self.control_dt, self.log_dt, self.duration = sim.dt, sim.control_dt, sim.log_dt, sim.duration
@@ -388,6 +391,8 @@ class Simulation:
             acc = d.qacc.copy() if (log_now or (k + 1) % self.sub == 0) else acc
             if log_now:
                 logger.post(k // self.log_every, d.qacc)
+                for hook in self.log_hooks:
+                    hook(logger, k // self.log_every, t)
             self.actuator.advance(command, travel, rate, t, self.dt)
             if progress is not None and k % prog_every == 0:
                 progress(k / self.n_steps)
