@@ -84,7 +84,7 @@ class HalfCar(Vehicle):
             set_tendon(root, f"tire_{s}", getattr(p, f"tire_stiffness_{s}"), getattr(p, f"tire_damping_{s}"))
             # travel = body_z - x*pitch - wheel_z (pitch positive = nose down: the front end moves down)
             for elem in root.find("tendon", f"suspension_{s}").joint:
-                if elem.joint == "pitch":
+                if getattr(elem.joint, "name", elem.joint) == "pitch":  # a reference to the joint element
                     elem.coef = -x
         # drawing only: body box spanning both axles, a nose marker at the front
         box, nose = root.find("geom", "body_box"), root.find("geom", "body_nose")
