@@ -192,7 +192,7 @@ class Simulation:
             scls = SENSORS.get(scfg.type, field=f"sensors.{i}.type", source=source)
             sp_ = stack_params([validate_params(scls.Params, s.sensors[i].params, f"sensors.{i}.params", source)
                                 for s in self.scenarios], nc)
-            rng = np.random.default_rng([sc0.sim.seed, 2631, i])
+            rng = _PerCarRNG([np.random.default_rng([s.sim.seed, 2631, i]) for s in self.scenarios])
             self.sensors.append(SensorChannel(scfg, scls(sp_, sctx), self.control_dt, rng))
 
         # controller ------------------------------------------------------------------------------------
@@ -432,6 +432,22 @@ class Simulation:
                     "runaway state: the step may be too large for a stiff effect or actuator (try a smaller sim.dt), "
                     "the controller may be unstable, or the limits sim.max_displacement/max_velocity too tight")
             raise SimulationDiverged(t, state, hint, car=car if P.n > 1 else None)
+
+
+class _PerCarRNG:
+    """Noise generator of an ensemble: each car draws from its own stream (seeded by its scenario's
+    ``sim.seed``), so a car's noise, and hence its result, is the same alone and inside any ensemble."""
+
+    def __init__(self, rngs):
+        self.rngs = rngs
+
+    def normal(self, loc=0.0, scale=1.0, size=None):
+        if size is None or len(self.rngs) == 1:
+            return self.rngs[0].normal(loc, scale, size)
+        return np.stack([g.normal(loc, scale, size[1:]) for g in self.rngs])
+
+    def __getattr__(self, name):  # other draws: the first car's stream (single runs unchanged)
+        return getattr(self.rngs[0], name)
 
 
 def _full_state(s: PlantState) -> dict:
