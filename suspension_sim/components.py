@@ -31,9 +31,14 @@ class Params(BaseModel):
 
 
 def format_validation_error(err: ValidationError, prefix: str = "") -> tuple[str, str]:
-    """(field path, message) of the first error of a pydantic ValidationError."""
-    e = err.errors()[0]
-    loc = ".".join(str(p) for p in e.get("loc", ()) if p != "__root__")
+    """(field path, message) of the first error of a pydantic ValidationError.
+
+    Union members' tags in the location (``constrained-float``, ``list[float]``) are dropped, and of the
+    alternatives of one union the deepest error is shown (``c_v.1: >= 0`` rather than ``c_v: not a number``)."""
+    errs = [(tuple(p for p in x.get("loc", ()) if p != "__root__" and not _union_tag(p)), x) for x in err.errors()]
+    first = errs[0][0]
+    loc_t, e = max((ex for ex in errs if ex[0][:len(first)] == first), key=lambda ex: len(ex[0]))
+    loc = ".".join(str(p) for p in loc_t)
     field = ".".join(p for p in (prefix, loc) if p)
     msg = e.get("msg", "invalid value")
     if e.get("type") == "extra_forbidden":
@@ -45,6 +50,11 @@ def format_validation_error(err: ValidationError, prefix: str = "") -> tuple[str
         if inp is not None and not isinstance(inp, (dict, list)):
             msg = f"{msg} (got {inp!r})"
     return field, msg
+
+
+def _union_tag(p) -> bool:
+    return isinstance(p, str) and ("[" in p or p.startswith("constrained-") or
+                                   p in ("float", "int", "str", "bool", "none", "list", "dict", "tuple"))
 
 
 def validate_params(model: type[BaseModel], raw: dict | None, field: str, source: str | None = None) -> BaseModel:
