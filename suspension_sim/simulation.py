@@ -387,10 +387,15 @@ class Simulation:
             log_now = k % self.log_every == 0
             if log_now:
                 logger.pre(k // self.log_every, t, road, road_vel, travel, rate, command, F_act, F_eff, F_teff, readings)
+            need_acc = log_now or (k + 1) % self.sub == 0
+            v_before = d.qvel.copy() if need_acc else None
             mujoco.mj_step2(m, d)
-            acc = d.qacc.copy() if (log_now or (k + 1) % self.sub == 0) else acc
+            if need_acc:
+                # the acceleration the step applied, (v[k+1] - v[k]) / dt: with implicit damping d.qacc (the
+                # explicit acceleration at the step start) differs from it by O(dt·c/m)
+                acc = (d.qvel - v_before) / self.dt
             if log_now:
-                logger.post(k // self.log_every, d.qacc)
+                logger.post(k // self.log_every, acc)
                 for hook in self.log_hooks:
                     hook(logger, k // self.log_every, t)
             self.actuator.advance(command, travel, rate, t, self.dt)
