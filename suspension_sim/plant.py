@@ -53,23 +53,59 @@ class Plant:
         self.body_joints = self.vcls.body_joints
         self.has_tire = all(c.has_tire for c in corners)
 
-        roots = [self.vcls.build(p, dt=dt) for p in self.params]
-        self.car_roots = roots
-        world = mjcf.RootElement(model=f"{self.vcls.name}_ensemble" if self.n > 1 else self.vcls.name)
-        world.compiler.angle = "radian"
-        world.option.timestep = dt
-        world.option.integrator = "implicitfast"
-        world.option.gravity = [0, 0, -9.81]
-        world.visual.__getattr__("global").offwidth = 1280
-        world.visual.__getattr__("global").offheight = 720
-        for i, r in enumerate(roots):
-            r.model = f"car{i}"
-            frame = world.worldbody.attach(r)
-            frame.pos = [0.0, spacing * i, 0.0]
-        self.mjcf_root = world
-        self.model = mujoco.MjModel.from_xml_string(world.to_xml_string(), world.get_assets())
+        self.spacing = spacing
+        self.model = self._assemble()
         self.data = mujoco.MjData(self.model)
         self._index()
+
+    def _assemble(self) -> mujoco.MjModel:
+        """The ensemble model: each car's MJCF (built once per distinct parameter set with dm_control, then
+        reused as MJCF text) attached with ``mujoco.MjSpec`` under the prefix ``car{i}/``.  Building each car
+        as a dm_control tree and attaching those costs ~15 ms per car; cars that share parameters (Monte
+        Carlo over roads, seeds, controller gains) now cost ~1 ms.  The compiled dynamics are the same."""
+        dt = self.dt
+        spec = mujoco.MjSpec()
+        spec.modelname = f"{self.vcls.name}_ensemble" if self.n > 1 else self.vcls.name
+        spec.compiler.degree = False
+        spec.option.timestep = dt
+        spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+        spec.option.gravity = [0, 0, -9.81]
+        spec.visual.global_.offwidth = 1280
+        spec.visual.global_.offheight = 720
+        cache: dict[str, tuple] = {}
+        self._car_xml = []
+        for i, p in enumerate(self.params):
+            key = p.model_dump_json()
+            if key not in cache:
+                root = self.vcls.build(p, dt=dt)
+                cache[key] = (root.to_xml_string(), root.get_assets())
+            xml, assets = cache[key]
+            self._car_xml.append(cache[key])
+            child = mujoco.MjSpec.from_string(xml, assets=assets)
+            child.modelname = f"car{i}"
+            frame = spec.worldbody.add_frame(pos=[0.0, self.spacing * i, 0.0])
+            spec.attach(child, prefix=f"car{i}/", frame=frame)
+        self.spec = spec
+        return spec.compile()
+
+    @property
+    def car_roots(self) -> list:
+        """Each car's MJCF as a dm_control tree (built on demand)."""
+        return [mjcf.from_xml_string(xml, assets=assets) for xml, assets in self._car_xml]
+
+    @property
+    def mjcf_root(self):
+        """The ensemble as a dm_control MJCF tree (built on demand; the simulated model is :attr:`model`)."""
+        world = mjcf.RootElement(model=f"{self.vcls.name}_ensemble" if self.n > 1 else self.vcls.name)
+        world.compiler.angle = "radian"
+        world.option.timestep = self.dt
+        world.option.integrator = "implicitfast"
+        world.option.gravity = [0, 0, -9.81]
+        for i, r in enumerate(self.car_roots):
+            r.model = f"car{i}"
+            frame = world.worldbody.attach(r)
+            frame.pos = [0.0, self.spacing * i, 0.0]
+        return world
 
     # ------------------------------------------------------------------------------------------------
     def _index(self):
