@@ -158,13 +158,11 @@ class SuspensionPhysics(_engine.Physics):
         k = sim.n_steps
         z, zd = sim._road_chunk(k, k + 1)
         road, road_vel = z[:, 0, :], zd[:, 0, :]
-        acc = d.qacc.copy()  # the last physics step's acceleration (what the loop would hold)
+        acc, F_act, F_teff = sim.end_forces  # the last physics step's, as the loop would hold them
         d.qpos[P.road_q] = road
         d.qvel[P.road_v] = road_vel
         d.ctrl[P.road_servo] = road
         mujoco.mj_step1(m, d)
-        F_act = d.ctrl[P.act].copy()
-        F_teff = d.ctrl[P.eff_t].copy() if P.has_tire else np.zeros((P.n, P.nc))
         state = sim._state(k * sim.dt, road, road_vel, acc, F_act, F_teff)
         readings = {ch.name: ch.sample(state) for ch in sim.sensors}
         if sim.full_state:

@@ -401,6 +401,7 @@ class Simulation:
             self.actuator.advance(command, travel, rate, t, self.dt)
             if progress is not None and k % prog_every == 0:
                 progress(k / self.n_steps)
+        self.end_forces = (acc, F_act, F_teff)  # the last step's acceleration and forces (envs.py's last observation)
         self._check(self.n_steps * self.dt, d)
         wall = _time.perf_counter() - wall0
         if progress is not None:

@@ -128,3 +128,19 @@ def test_variants_reseed_and_bad_actions():
     env.reset()
     with pytest.raises(ValueError, match="one command per corner"):
         env.step(np.zeros(3))
+
+
+def test_observations_are_the_loop_quantities_at_each_control_instant():
+    """Noise-free sensors: the observation after step i is the state at t_i (travel logged at t_i; body
+    acceleration of the physics step ending at t_i), including the final observation at t = duration."""
+    raw = _raw(log_dt=0.0005)
+    raw["sensors"] = [dict(type="travel"), dict(type="corner_body_acc")]
+    env = make_env(parse_scenario(raw))
+    k = iter(range(10**6))
+    steps = _run_episode(env, lambda obs: np.array([300.0 * np.sin(0.05 * next(k))]))
+    ts = env.physics.result().ts
+    sub = env.physics.sim.sub
+    for i in (1, 57, len(steps) - 2):
+        assert steps[i].observation["travel"][0] == ts["travel"].iloc[sub * i]
+        assert steps[i].observation["corner_body_acc"][0] == pytest.approx(ts["body_acc"].iloc[sub * i - 1], rel=1e-9, abs=1e-12)
+    assert steps[-1].observation["corner_body_acc"][0] == pytest.approx(ts["body_acc"].iloc[-1], rel=1e-9, abs=1e-12)
