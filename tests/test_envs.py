@@ -144,3 +144,20 @@ def test_observations_are_the_loop_quantities_at_each_control_instant():
         assert steps[i].observation["travel"][0] == ts["travel"].iloc[sub * i]
         assert steps[i].observation["corner_body_acc"][0] == pytest.approx(ts["body_acc"].iloc[sub * i - 1], rel=1e-9, abs=1e-12)
     assert steps[-1].observation["corner_body_acc"][0] == pytest.approx(ts["body_acc"].iloc[-1], rel=1e-9, abs=1e-12)
+
+
+def test_make_env_from_path_with_flat_observation(tmp_path):
+    import yaml
+
+    p = tmp_path / "rl.yaml"
+    raw = _raw()
+    raw["actuator"] = {"type": "ideal"}  # no max_force: unbounded unless action_bound is given
+    p.write_text(yaml.safe_dump(raw))
+    env = make_env(str(p), flat_observation=True, action_bound=1500.0)
+    np.testing.assert_array_equal(env.action_spec().maximum, [1500.0])
+    ts = env.reset()
+    assert ts.observation["observations"].shape == (3,)  # corner_body_vel, lvdt, body_acc: one value each
+    assert env.control_timestep() == pytest.approx(0.002)
+    with pytest.raises(ScenarioError, match="rl.yaml: road.type"):
+        p.write_text(yaml.safe_dump({**raw, "road": {"type": "moon"}}))
+        make_env(p)
