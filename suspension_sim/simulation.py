@@ -342,15 +342,21 @@ class Simulation:
         prog_every = max(1, self.n_steps // 100)
         road_chunk = None
         readings: dict = {}
+        # fast paths (same arithmetic, so identical results): strided views of MjData where the ensemble's
+        # layout is regular instead of fancy indexing, no gathers for effects acting on every corner
+        S = self._slots = _Slots(P, d)
+        effects = [(e, sel, len(sel) == nc and bool(np.all(sel == np.arange(nc)))) for e, sel in self.effects]
+        tire_effects = any(e.target == "tire" for e, _ in self.effects)
+        zeros = np.zeros((n, nc))
         for k in range(self.n_steps):
             t = k * self.dt
             j = k % chunk
             if j == 0:
                 road_chunk = self._road_chunk(k, min(k + chunk, self.n_steps))
             road, road_vel = road_chunk[0][:, j, :], road_chunk[1][:, j, :]
-            d.qpos[P.road_q] = road
-            d.qvel[P.road_v] = road_vel
-            d.ctrl[P.road_servo] = road
+            S.road_q.set(road)
+            S.road_v.set(road_vel)
+            S.road_servo.set(road)
             control_now = k % self.sub == 0
             if control_now and self.variations:
                 self._apply_variations(t)
@@ -368,22 +374,28 @@ class Simulation:
                 command = np.asarray((yield readings), dtype=float)
                 if command.shape != (n, nc):
                     command = np.broadcast_to(command, (n, nc)).astype(float)
-            travel = d.ten_length[P.susp_t]
-            rate = d.ten_velocity[P.susp_t]
+            travel = S.susp_len.get()
+            rate = S.susp_vel.get()
             F_act = self.actuator.force(command, travel, rate, t)
-            if self.effects:
-                F_eff = np.zeros((n, nc))
-                F_teff = np.zeros((n, nc))
-                for eff, sel in self.effects:
+            if effects:
+                F_eff = zeros.copy()
+                F_teff = zeros.copy()
+                if tire_effects:
+                    tlen, tvel = S.tire_len.get(), S.tire_vel.get()
+                for eff, sel, every in effects:
                     if eff.target == "tire":
-                        f = eff.force(d.ten_length[P.tire_t][:, sel], d.ten_velocity[P.tire_t][:, sel], t, self.dt)
-                        F_teff[:, sel] += f
+                        if every:
+                            F_teff += eff.force(tlen, tvel, t, self.dt)
+                        else:
+                            F_teff[:, sel] += eff.force(tlen[:, sel], tvel[:, sel], t, self.dt)
+                    elif every:
+                        F_eff += eff.force(travel, rate, t, self.dt)
                     else:
                         F_eff[:, sel] += eff.force(travel[:, sel], rate[:, sel], t, self.dt)
-                d.ctrl[P.eff_s] = F_eff
+                S.eff_s.set(F_eff)
                 if P.has_tire:
-                    d.ctrl[P.eff_t] = F_teff
-            d.ctrl[P.act] = F_act
+                    S.eff_t.set(F_teff)
+            S.act.set(F_act)
             log_now = k % self.log_every == 0
             if log_now:
                 logger.pre(k // self.log_every, t, road, road_vel, travel, rate, command, F_act, F_eff, F_teff, readings)
@@ -413,6 +425,14 @@ class Simulation:
         q, v = d.qpos[P.free_q], d.qvel[P.free_v]
         lim_x = self.scenarios[0].sim.max_displacement
         lim_v = self.scenarios[0].sim.max_velocity
+        if np.abs(q).max() <= lim_x and np.abs(v).max() <= lim_v and not _mj_bad_values(d):
+            return  # the common case, cheaply (NaN fails the comparisons)
+        if _mj_bad_values(d):
+            # MuJoCo replaced a NaN/Inf (in ctrl, qpos, qvel or qacc) and went on: report it, never hide it
+            what = _mj_bad_values(d)
+            car = _car_of_ctrl(P, d.warning[mujoco.mjtWarning.mjWARN_BADCTRL].lastinfo) if what == "ctrl" else None
+            raise SimulationDiverged(t, {}, f"NaN: MuJoCo found a NaN/Inf in {what} (a force law, actuator or "
+                                     "controller produced an invalid value)", car=car if P.n > 1 else None)
         bad_q = ~np.isfinite(q) | (np.abs(q) > lim_x)
         bad_v = ~np.isfinite(v) | (np.abs(v) > lim_v)
         if bad_q.any() or bad_v.any():
@@ -438,6 +458,70 @@ class Simulation:
                     "runaway state: the step may be too large for a stiff effect or actuator (try a smaller sim.dt), "
                     "the controller may be unstable, or the limits sim.max_displacement/max_velocity too tight")
             raise SimulationDiverged(t, state, hint, car=car if P.n > 1 else None)
+
+
+_BAD = (("ctrl", mujoco.mjtWarning.mjWARN_BADCTRL), ("qacc", mujoco.mjtWarning.mjWARN_BADQACC),
+        ("qvel", mujoco.mjtWarning.mjWARN_BADQVEL), ("qpos", mujoco.mjtWarning.mjWARN_BADQPOS))
+
+
+def _mj_bad_values(d) -> str:
+    """Name of the first array in which MuJoCo met a NaN/Inf since the reset ('' if none)."""
+    for name, w in _BAD:
+        if d.warning[w].number:
+            return name
+    return ""
+
+
+def _car_of_ctrl(P, u: int):
+    for i in range(P.n):
+        grids = [P.act[i], P.eff_s[i], P.road_servo[i]] + ([P.eff_t[i]] if P.eff_t is not None else [])
+        if any(u in g for g in grids):
+            return i
+    return None
+
+
+def _grid_view(arr: np.ndarray, idx: np.ndarray):
+    """A strided ``(n, nc)`` view of the 1-D array ``arr`` at the index grid ``idx`` when the grid is regular
+    (``idx[i, c] = base + i*si + c*sc``, si, sc >= 0), else None."""
+    idx = np.asarray(idx)
+    if arr.ndim != 1 or idx.ndim != 2 or idx.size == 0:
+        return None
+    n, nc = idx.shape
+    base = int(idx[0, 0])
+    si = int(idx[1, 0] - base) if n > 1 else 0
+    sc = int(idx[0, 1] - base) if nc > 1 else 0
+    if si < 0 or sc < 0:
+        return None
+    if not np.array_equal(idx, base + si * np.arange(n)[:, None] + sc * np.arange(nc)[None, :]):
+        return None
+    return np.lib.stride_tricks.as_strided(arr[base:], shape=(n, nc), strides=(si * arr.strides[0], sc * arr.strides[0]))
+
+
+class _Slot:
+    """Read (a copy) or write an ``(n, nc)`` index grid of a MjData array."""
+
+    __slots__ = ("arr", "idx", "view")
+
+    def __init__(self, arr, idx):
+        self.arr, self.idx = arr, idx
+        self.view = _grid_view(arr, idx) if idx is not None else None
+
+    def get(self):
+        return self.view.copy() if self.view is not None else self.arr[self.idx]
+
+    def set(self, value):
+        if self.view is not None:
+            self.view[...] = value
+        else:
+            self.arr[self.idx] = value
+
+
+class _Slots:
+    def __init__(self, P, d):
+        self.road_q, self.road_v, self.road_servo = _Slot(d.qpos, P.road_q), _Slot(d.qvel, P.road_v), _Slot(d.ctrl, P.road_servo)
+        self.susp_len, self.susp_vel = _Slot(d.ten_length, P.susp_t), _Slot(d.ten_velocity, P.susp_t)
+        self.tire_len, self.tire_vel = _Slot(d.ten_length, P.tire_t), _Slot(d.ten_velocity, P.tire_t)
+        self.eff_s, self.eff_t, self.act = _Slot(d.ctrl, P.eff_s), _Slot(d.ctrl, P.eff_t), _Slot(d.ctrl, P.act)
 
 
 class _PerCarRNG:
