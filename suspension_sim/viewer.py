@@ -539,7 +539,7 @@ def camera_position(name: str, size: float) -> list:
     if name not in CAMERAS:
         raise ValueError(f"unknown camera preset {name!r} (choose from {', '.join(CAMERAS)})")
     d = np.asarray(CAMERAS[name], dtype=float)
-    d = d / np.linalg.norm(d) * (1.25 * size + 1.3) * (0.55 if name == "wheel" else 1.0)
+    d = d / np.linalg.norm(d) * (0.8 * size + 1.2) * (0.6 if name == "wheel" else 1.0)
     return [float(d[0]), float(d[2]), float(-d[1])]
 
 
@@ -761,7 +761,7 @@ def _text_object(text: str):
     import meshcat.geometry as g
 
     tex = g.GenericTexture({"type": "_text", "text": text, "font_size": 64, "font_face": "monospace"})
-    return g.Box([1.6, 0.001, 1.6]), g.MeshBasicMaterial(map=tex, transparent=True, opacity=1.0, color=0xFFFFFF)
+    return g.Box([1.6, 0.001, 1.6]), g.MeshBasicMaterial(map=tex, transparent=True, opacity=1.0, color=0xFFFFFF, side=0)
 
 
 class LiveView:
