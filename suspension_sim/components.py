@@ -41,6 +41,8 @@ def format_validation_error(err: ValidationError, prefix: str = "") -> tuple[str
     loc = ".".join(str(p) for p in loc_t)
     field = ".".join(p for p in (prefix, loc) if p)
     msg = e.get("msg", "invalid value")
+    if e.get("type") == "value_error" and msg.startswith("Value error, "):
+        msg = msg[len("Value error, "):]  # our validators' own messages, without pydantic's prefix
     if e.get("type") == "extra_forbidden":
         msg = "unknown key"
     elif e.get("type") == "missing":

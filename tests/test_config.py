@@ -103,6 +103,7 @@ def test_bad_scenario_one_line_error(tmp_path, path, value, field, text):
     assert "\n" not in msg
     assert msg.startswith(f"{p}: {field}: "), msg
     assert text in msg
+    assert "Value error" not in msg and "constrained" not in msg  # no pydantic internals
 
 
 @pytest.mark.parametrize("text, expect", [
