@@ -365,6 +365,7 @@ class Simulation:
                 self.maneuver.apply(t, d)
             mujoco.mj_step1(m, d)
             if control_now:
+                self._last_forces = (F_act, F_eff, F_teff)
                 self._check(t, d)
                 state = self._state(t, road, road_vel, acc, F_act, F_teff)
                 readings = {ch.name: ch.sample(state) for ch in self.sensors}
@@ -431,8 +432,13 @@ class Simulation:
             # MuJoCo replaced a NaN/Inf (in ctrl, qpos, qvel or qacc) and went on: report it, never hide it
             what = _mj_bad_values(d)
             car = _car_of_ctrl(P, d.warning[mujoco.mjtWarning.mjWARN_BADCTRL].lastinfo) if what == "ctrl" else None
-            raise SimulationDiverged(t, {}, f"NaN: MuJoCo found a NaN/Inf in {what} (a force law, actuator or "
-                                     "controller produced an invalid value)", car=car if P.n > 1 else None)
+            forces = getattr(self, "_last_forces", ())
+            if what == "ctrl" and any(not np.all(np.isfinite(f)) for f in forces):
+                hint = "NaN: a force law, actuator or controller produced NaN/Inf (MuJoCo zeroed it and went on)"
+            else:
+                hint = (f"runaway state: MuJoCo met a huge value in {what} and reset the state; the controller may be "
+                        "unstable or the step too large for a stiff element")
+            raise SimulationDiverged(t, {}, hint, car=car if P.n > 1 else None)
         bad_q = ~np.isfinite(q) | (np.abs(q) > lim_x)
         bad_v = ~np.isfinite(v) | (np.abs(v) > lim_v)
         if bad_q.any() or bad_v.any():
