@@ -702,6 +702,12 @@ class LocalApp(tornado.web.Application):
     def listen(self, port, address="127.0.0.1", **kw):
         return super().listen(port, address=address, **kw)
 class Bridge(z.ZMQWebSocketBridge):
+    def handle_zmq(self, frames):
+        if frames[0] == b"clients":  # how many browsers are connected
+            self.zmq_socket.send(str(len(self.websocket_pool)).encode())
+            return
+        super().handle_zmq(frames)
+
     def make_app(self):
         return LocalApp([(r"/static/(.*)", z.StaticFileHandlerNoCache, {"path": z.VIEWER_ROOT, "default_filename": z.VIEWER_HTML}),
                          (r"/", z.WebSocketHandler, {"bridge": self})])
@@ -746,7 +752,23 @@ class LiveServer:
         import meshcat
 
         with contextlib.redirect_stdout(io.StringIO()):  # meshcat prints the URL itself; we print our own
-            return meshcat.Visualizer(zmq_url=self.zmq_url)
+            self.vis = meshcat.Visualizer(zmq_url=self.zmq_url)
+        return self.vis
+
+    def clients(self) -> int:
+        """Number of browsers connected to the viewer."""
+        sock = self.vis.window.zmq_socket
+        sock.send(b"clients")
+        return int(sock.recv().decode())
+
+    def wait_for_browser(self, timeout: float) -> bool:
+        """Wait up to ``timeout`` s for a browser to connect; True if one did."""
+        t0 = _time.monotonic()
+        while _time.monotonic() - t0 < timeout:
+            if self.clients() > 0:
+                return True
+            _time.sleep(0.1)
+        return self.clients() > 0
 
     def close(self):
         if self.proc.poll() is None:
@@ -817,13 +839,22 @@ class LiveView:
 
 
 def attach_live_viewer(sim, console=None, rate: float | None = None, fps: float = 30.0, camera: str = "three_quarter",
-                       server: LiveServer | None = None, car: int = 0) -> LiveView:
+                       server: LiveServer | None = None, car: int = 0, wait: float | None = None,
+                       open_browser: bool | None = None) -> LiveView:
     """Start a meshcat server on 127.0.0.1, print its URL and stream car ``car`` of ``sim`` while it runs.
 
     ``rate``: simulated seconds per wall second (default 1 = real time, env ``SUSPENSION_SIM_VIEW_RATE``; 0 =
-    no pacing).  The view is fed through ``sim.log_hooks`` at every logged step (drawn at ``fps``)."""
+    no pacing).  The view is fed through ``sim.log_hooks`` at every logged step (drawn at ``fps``).
+    ``wait``: seconds to wait for a browser to connect before the run starts (default: env
+    ``SUSPENSION_SIM_VIEW_WAIT``, else 30 s in an interactive terminal and 0 otherwise); ``open_browser``: try
+    to open the URL in the default browser (default: in an interactive terminal)."""
     if rate is None:
         rate = float(os.environ.get("SUSPENSION_SIM_VIEW_RATE", "1.0"))
+    interactive = sys.stdin is not None and sys.stdin.isatty() and sys.stdout.isatty()
+    if wait is None:
+        wait = float(os.environ.get("SUSPENSION_SIM_VIEW_WAIT", "30" if interactive else "0"))
+    if open_browser is None:
+        open_browser = interactive
     server = server or LiveServer()
     vis = server.visualizer()
     P = sim.plant
@@ -850,6 +881,17 @@ def attach_live_viewer(sim, console=None, rate: float | None = None, fps: float 
                       f"{'full speed' if rate <= 0 else f'{rate:g}x real time'})")
     else:
         print(f"meshcat viewer: {server.web_url}")
+    if open_browser:
+        import webbrowser
+
+        try:
+            webbrowser.open(server.web_url, new=2)
+        except Exception:
+            pass
+    if wait > 0 and server.clients() == 0:
+        msg = f"waiting up to {wait:g} s for a browser to open the viewer..."
+        (console.print(msg) if console is not None else print(msg))
+        server.wait_for_browser(wait)
 
     def hook(logger, j: int, t: float):
         if t - view._last_t < 1.0 / view.fps - 1e-12:

@@ -85,8 +85,15 @@ def bump_run(model: str, tmp: Path):
     return r, d
 
 
+@pytest.fixture(scope="module")
+def quarter_run(tmp_path_factory):
+    return bump_run("quarter_car", tmp_path_factory.mktemp("quarter_car"))
+
+
 @pytest.fixture(scope="module", params=["quarter_car", "half_car"])
 def run(request, tmp_path_factory):
+    if request.param == "quarter_car":
+        return request.getfixturevalue("quarter_run")
     return bump_run(request.param, tmp_path_factory.mktemp(request.param))
 
 
@@ -179,10 +186,10 @@ def test_viewer_html_from_disk(driver, run, shots):
     assert not errors, errors
 
 
-def test_report_html_from_disk(driver, run, shots):
+def test_report_html_from_disk(driver, quarter_run, shots):
     from selenium.webdriver.common.by import By
 
-    result, d = run
+    result, d = quarter_run
     model = result.info["model"]
     driver.get((d / "report.html").resolve().as_uri())
     n_rows = driver.execute_script("return document.querySelectorAll('table.metrics tr').length")
@@ -225,7 +232,9 @@ def test_live_viewer_streams_to_the_browser(driver, shots):
     sim = Simulation([sc])
     view = attach_live_viewer(sim, rate=1.0, fps=30)
     try:
+        assert view.server.clients() == 0
         driver.get(view.server.web_url)
+        assert view.server.wait_for_browser(20), "the browser did not connect to the live viewer"
         t0 = time.monotonic()
         while time.monotonic() - t0 < 20:  # the scene arrives over the websocket
             if body_mask(central(png_array(driver.get_screenshot_as_png()), 0.6)).sum() > 400:
