@@ -158,13 +158,14 @@ class Simulation:
             rp = validate_params(rcls.Params, s.road.params, "road.params", source)
             seed = s.road.seed if s.road.seed is not None else s.sim.seed
             dist = float(sp.distance(self.duration)) if sp.const is not None else sp.max_distance
-            rctx = RoadContext(duration=self.duration, distance=dist, wheelbase=self.geom.wheelbase,
+            rctx = RoadContext(duration=self.duration, distance=dist, wheelbase=P.vcls.wheelbase(P.params[i]),
                                mean_speed=sp.mean(self.duration), dt=self.dt,
                                n_tracks=1 + int(max(self.geom.tracks) > 0), tracks=s.road.tracks)
             self.speeds.append(sp)
             self.roads.append(rcls(rp, np.random.default_rng([seed, 8608]), rctx))
-        xs = np.asarray(self.geom.corner_x)
-        self.corner_back = xs.max() - xs  # distance of each axle behind the front axle
+        # distance of each axle behind the front axle, per car (cars of an ensemble may differ in a, b)
+        xs = np.asarray([[c.x for c in P.vcls.corners(p)] for p in P.params], dtype=float)
+        self.corner_back = xs.max(axis=1, keepdims=True) - xs  # (n_cars, n_corners)
 
         # time-varying parameters -----------------------------------------------------------------------
         self.variations = []
@@ -221,8 +222,8 @@ class Simulation:
         for i, (road, sp) in enumerate(zip(self.roads, self.speeds)):
             x = sp.distance(t)
             for c in range(nc):
-                xc = x - self.corner_back[c]
-                tc = t if self.corner_back[c] == 0 else sp.time_at(xc, t)
+                xc = x - self.corner_back[i, c]
+                tc = t if self.corner_back[i, c] == 0 else sp.time_at(xc, t)
                 z[i, :, c] = road.height(tc, xc, self.geom.tracks[c])
         zd = (z[:, 2:, :] - z[:, :-2, :]) / (2 * self.dt)
         return z[:, 1:-1, :], zd
@@ -266,7 +267,7 @@ class Simulation:
         for i, (road, sp) in enumerate(zip(self.roads, self.speeds)):
             x = float(sp.distance(t))
             for c in range(self.plant.nc):
-                xc = x - self.corner_back[c] + dist
+                xc = x - self.corner_back[i, c] + dist
                 v = max(float(sp.speed(t)), 1e-9)
                 out[i, c] = road.height(np.array([t + dist / v]), np.array([xc]), self.geom.tracks[c])[0]
         return out

@@ -1,0 +1,433 @@
+"""Vehicle models against independent analytic models: frequency responses, static sag, natural frequencies,
+SDOF free and force responses, the MJCF files on their own, the half car's pitch sign and rear road delay.
+
+The analytic models below are written from the equations of motion (masses, springs, dampers, tires), not
+from the MJCF or any ``suspension_sim`` code: ``M q'' + C q' + K q = Σ_i (K_i + s C_i) w_i`` with the road
+inputs ``w_i``; transfer functions ``H(jω) = O (−ω² M + jω C + K)⁻¹ (K_i + jω C_i)``.
+
+Frequency responses (``test_frequency_response_*``): one MuJoCo ensemble per model and band, one car per
+frequency (13 frequencies, 0.1–30 Hz), each driven by a sine road ``A·sin(ωt)`` faded in with a half cosine;
+the steady-state complex amplitude is a least-squares fit of ``c0 + p·cos ωt + q·sin ωt`` plus the decaying
+free modes of the analytic model (so the window need not wait for the transient) over a whole number of
+periods.  The error is the complex one, ``|H_sim/H − 1|`` (magnitude and phase together).
+
+Integration error, measured: at the default step dt = 0.5 ms MuJoCo's ``implicitfast`` integrator gives
+complex errors up to 4.7 % at 30 Hz on the quarter car (a phase lag ≈ ω·dt/2: −0.047 rad; magnitude errors
+≤ 0.7 %, largest near wheel hop).  The cause is the integrator, not the model or the loop: (i) the damper
+between body and wheel is a tendon spanning two kinematic trees, and MuJoCo's implicit integrators drop the
+cross-tree terms of the damping derivative, so each mass sees its own velocity implicitly (v[k+1]) and the
+other's explicitly (v[k], half a step old); (ii) the implicit diagonal term acts as an added mass c·dt
+(0.17 % of the sprung mass at 0.5 ms, visible as a constant travel-gain error at low frequency).  Both are
+O(dt): halving dt halves them (checked on the eigenvalues in ``test_natural_frequencies``); with the springs
+alone (c = 0) the scheme is symplectic Euler and the responses are exact to 1e-5 with no phase error.  The
+road itself is applied at the right instant (the logged road equals A·sin(ωt_k) and the phase error vanishes
+with c = 0).  A second cause, the logged acceleration (``d.qacc``, the explicit acceleration, off by dt·c/m
+from the one the step applies) was fixed in the simulation loop.  So this test runs the band up to 1.7 Hz at
+dt = 0.25 ms and the band 2.8–30 Hz at dt = 0.025 ms, where the first-order error is within the issue's
+0.5 % (measured: ≤ 0.25 %).  The SDOF rig (base velocity set exactly, body damping implicit) meets 0.5 % up
+to 30 Hz at 0.25 ms.
+
+The half car has two road inputs (front, rear delayed by wheelbase/speed).  Two cars per frequency, one with
+no delay (very high speed) and one with a quarter-period delay, give both columns of the 2-input transfer
+function; the error per output is ‖H_sim − H‖/‖H‖ over the two inputs (a single delayed input would make
+relative errors meaningless where front and rear cancel).  Two parameter sets: the defaults (bounce and
+pitch decoupled) and an asymmetric car (a ≠ b, front ≠ rear) that couples them.
+"""
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from suspension_sim.config import parse_scenario
+from suspension_sim.registry import VEHICLES
+from suspension_sim.simulation import Simulation
+from suspension_sim.vehicles.base import equilibrium_preloads, models_dir
+
+G = 9.81
+TOL = 0.005  # the issue's 0.5 %
+FREQS = np.geomspace(0.1, 30.0, 13)
+F_LOW, F_HIGH = FREQS[:7], FREQS[7:]  # 0.1 .. 1.73 Hz, 2.79 .. 30 Hz
+BANDS = {  # dt, log_dt, fade-in, settling after the fade-in, fit window (s)
+    "low": dict(freqs=F_LOW, dt=2.5e-4, log_dt=1e-3, fade=1.0, settle=0.5, window=10.0),
+    "high": dict(freqs=F_HIGH, dt=2.5e-5, log_dt=2.5e-4, fade=0.3, settle=0.2, window=0.5),
+}
+AMP = 0.01  # m, road sine amplitude
+ASYM_HALF = dict(a=1.2, b=1.7, sprung_mass=520.0, pitch_inertia=1000.0, unsprung_mass_front=40.0,
+                 unsprung_mass_rear=50.0, spring_stiffness_rear=20000.0, damping_rear=1500.0,
+                 tire_stiffness_rear=110000.0)
+
+
+# ------------------------------------------------------------------------------------------------------
+# independent analytic models
+class Linear:
+    """M q'' + C q' + K q = Σ_i (K_in[i] + s C_in[i]) w_i;  outputs y = O q + D w (position-like)."""
+
+    def __init__(self, M, C, K, K_in, C_in, outputs):
+        self.M, self.C, self.K = (np.atleast_2d(np.asarray(x, dtype=float)) for x in (M, C, K))
+        self.K_in = [np.asarray(k, dtype=float) for k in K_in]
+        self.C_in = [np.asarray(c, dtype=float) for c in C_in]
+        self.outputs = {k: (np.asarray(o, dtype=float), np.asarray(d, dtype=float)) for k, (o, d) in outputs.items()}
+
+    def freq_response(self, f) -> dict[str, np.ndarray]:
+        """Output -> complex array (n_f, n_inputs); ``<name>_acc`` = (jω)² × position output."""
+        out = {k: np.zeros((len(f), len(self.K_in)), complex) for k in self.outputs}
+        for n, fi in enumerate(f):
+            s = 2j * np.pi * fi
+            Z = self.M * s**2 + self.C * s + self.K
+            for i, (k_in, c_in) in enumerate(zip(self.K_in, self.C_in)):
+                q = np.linalg.solve(Z, k_in + s * c_in)
+                for name, (o, d) in self.outputs.items():
+                    out[name][n, i] = o @ q + d[i]
+        for name in list(out):
+            if name in ("body_z", "pitch"):
+                out[ACC[name]] = out[name] * (2j * np.pi * np.asarray(f))[:, None] ** 2
+        return out
+
+    def eigenvalues(self) -> np.ndarray:
+        """Oscillatory eigenvalues (upper half plane), by increasing |s|."""
+        n = len(self.M)
+        A = np.block([[np.zeros((n, n)), np.eye(n)],
+                      [-np.linalg.solve(self.M, self.K), -np.linalg.solve(self.M, self.C)]])
+        s = np.linalg.eigvals(A)
+        s = s[s.imag > 1e-9]
+        return s[np.argsort(np.abs(s))]
+
+
+ACC = {"body_z": "body_acc", "pitch": "pitch_acc"}
+
+
+def analytic(model: str, p) -> Linear:
+    if model == "sdof":  # x: mass; base w
+        m, k, c = p.sprung_mass, p.spring_stiffness, p.damping
+        return Linear([[m]], [[c]], [[k]], [[k]], [[c]], {"body_z": ([1.0], [0.0]), "travel": ([1.0], [-1.0])})
+    if model == "quarter_car":  # q = [body, wheel]; road w under the tire
+        ms, mu, k, c, kt, ct = (p.sprung_mass, p.unsprung_mass, p.spring_stiffness, p.damping, p.tire_stiffness,
+                                p.tire_damping)
+        return Linear(np.diag([ms, mu]), [[c, -c], [-c, c + ct]], [[k, -k], [-k, k + kt]], [[0, kt]], [[0, ct]],
+                      {"body_z": ([1, 0], [0]), "travel": ([1, -1], [0]), "wheel_z": ([0, 1], [0])})
+    if model == "half_car":  # q = [heave z, pitch θ (nose down +), front wheel, rear wheel]; inputs front, rear
+        a, b = p.a, p.b
+        jf, jr = np.array([1, -a, -1, 0.0]), np.array([1, b, 0, -1.0])  # travel: body point above axle − wheel
+        ef, er = np.array([0, 0, 1, 0.0]), np.array([0, 0, 0, 1.0])
+        K = (p.spring_stiffness_front * np.outer(jf, jf) + p.spring_stiffness_rear * np.outer(jr, jr)
+             + p.tire_stiffness_front * np.outer(ef, ef) + p.tire_stiffness_rear * np.outer(er, er))
+        C = (p.damping_front * np.outer(jf, jf) + p.damping_rear * np.outer(jr, jr)
+             + p.tire_damping_front * np.outer(ef, ef) + p.tire_damping_rear * np.outer(er, er))
+        M = np.diag([p.sprung_mass, p.pitch_inertia, p.unsprung_mass_front, p.unsprung_mass_rear])
+        z2 = [0.0, 0.0]
+        return Linear(M, C, K, [p.tire_stiffness_front * ef, p.tire_stiffness_rear * er],
+                      [p.tire_damping_front * ef, p.tire_damping_rear * er],
+                      {"body_z": ([1, 0, 0, 0], z2), "pitch": ([0, 1, 0, 0], z2), "travel_front": (jf, z2),
+                       "travel_rear": (jr, z2)})
+    raise KeyError(model)
+
+
+def params(model, **kw):
+    return VEHICLES.get(model).Params(**kw)
+
+
+# ------------------------------------------------------------------------------------------------------
+# helpers
+def scenario(model, vparams=None, road=None, speed=20.0, duration=1.0, dt=5e-4, log_dt=None, variations=(),
+             controller=None):
+    log_dt = log_dt or dt
+    raw = dict(vehicle=dict(model=model, params=vparams or {}, variations=list(variations)),
+               road=dict(type="flat") if road is None else dict(road, speed=speed),
+               sim=dict(duration=duration, dt=dt, control_dt=log_dt, log_dt=log_dt))
+    if controller:
+        raw["controller"] = controller
+    return parse_scenario(raw)
+
+
+def sine_amplitude(t, y, f, window, modes=()):
+    """Complex amplitude Y of the steady sine in y (y ≈ Re(Y e^{jωt}) + c0 + free modes) over the last
+    whole periods within ``window`` seconds."""
+    w = 2 * np.pi * f
+    n_per = max(1, int(np.floor(window * f + 1e-9)))
+    t_end = t[-1] + (t[1] - t[0])
+    sel = t >= t_end - n_per / f - 1e-9
+    ts, ys = t[sel], y[sel]
+    tt = ts - ts[0]
+    cols = [np.ones_like(ts), np.cos(w * ts), np.sin(w * ts)]
+    for lam in modes:
+        env = np.exp(lam.real * tt)
+        cols += [env * np.cos(lam.imag * tt), env * np.sin(lam.imag * tt)]
+    c = np.linalg.lstsq(np.column_stack(cols), ys, rcond=None)[0]
+    return c[1] - 1j * c[2]
+
+
+def unique_modes(lin: Linear, rtol=1e-6):
+    out = []
+    for s in lin.eigenvalues():
+        if all(abs(s - u) > rtol * abs(s) for u in out):
+            out.append(s)
+    return out
+
+
+def band_runs(model, cars, band):
+    """cars: list of (vehicle params dict, frequency, speed). One ensemble; returns the Results."""
+    b = BANDS[band]
+    max_tau = 0.0
+    for vp, f, speed in cars:
+        max_tau = max(max_tau, VEHICLES.get(model).wheelbase(params(model, **vp)) / speed)
+    duration = round(b["fade"] + max_tau + b["settle"] + b["window"], 3)
+    scs = [scenario(model, vp, dict(type="sine", params=dict(frequency=float(f), amplitude=AMP, fade_in=b["fade"])),
+                    speed=speed, duration=duration, dt=b["dt"], log_dt=b["log_dt"]) for vp, f, speed in cars]
+    return Simulation(scs).run()
+
+
+# ------------------------------------------------------------------------------------------------------
+# frequency responses
+@pytest.mark.parametrize("model", ["quarter_car", "sdof"])
+def test_frequency_response_one_input(model):
+    p = params(model)
+    lin = analytic(model, p)
+    modes = unique_modes(lin)
+    # the SDOF rig meets the tolerance up to 30 Hz with the low band's settings: one ensemble of all 13
+    bands = ["low", "high"] if model == "quarter_car" else ["low"]
+    errors = {}
+    for band in bands:
+        fb = BANDS[band]["freqs"] if model == "quarter_car" else FREQS
+        results = band_runs(model, [({}, f, 20.0) for f in fb], band)
+        H = lin.freq_response(fb)
+        for f, r, i in zip(fb, results, range(len(fb))):
+            t = r.ts["t"].to_numpy()
+            W = sine_amplitude(t, r.ts["road"].to_numpy(), f, BANDS[band]["window"])
+            assert abs(W / (-1j * AMP) - 1) < 1e-9  # the road is A·sin(ω t) at the logged instants
+            for ch in ("body_acc", "travel", "body_z"):
+                Y = sine_amplitude(t, r.ts[ch].to_numpy(), f, BANDS[band]["window"], modes)
+                errors[(ch, round(f, 3))] = abs(Y / (-1j * AMP) / H[ch][i, 0] - 1)
+    worst = max(errors, key=errors.get)
+    print(f"{model}: worst complex error {errors[worst]:.2e} at {worst}")
+    bad = {k: f"{v:.2e}" for k, v in errors.items() if v > TOL}
+    assert not bad, f"{model}: frequency response off by more than {TOL:.1%}: {bad}"
+
+
+def test_frequency_response_half_car():
+    model = "half_car"
+    sets = {"default": {}, "asymmetric": ASYM_HALF}
+    outputs = ("body_acc", "pitch", "pitch_acc", "travel_front", "travel_rear")
+    errors = {}
+    for band in ("low", "high"):
+        fb = BANDS[band]["freqs"]
+        cars, keys = [], []
+        for name, vp in sets.items():
+            L = VEHICLES.get(model).wheelbase(params(model, **vp))
+            for f in fb:
+                cars.append((vp, f, 1e7))  # no delay (τ = L/1e7 s, kept in the analytic model)
+                cars.append((vp, f, 4 * f * L))  # quarter-period delay of the rear input
+                keys.append((name, f))
+        results = band_runs(model, cars, band)
+        for k, (name, f) in enumerate(keys):
+            p = params(model, **sets[name])
+            lin = analytic(model, p)
+            modes = unique_modes(lin)
+            H = lin.freq_response([f])
+            Ys, Es = [], []
+            for r in results[2 * k: 2 * k + 2]:
+                ts = r.ts
+                t = ts["t"].to_numpy()
+                speed = r.scenario.road.speed
+                tau = (p.a + p.b) / speed
+                win = BANDS[band]["window"]
+                Wf = sine_amplitude(t, ts["road_front"].to_numpy(), f, win)
+                Wr = sine_amplitude(t, ts["road_rear"].to_numpy(), f, win)
+                assert abs(Wf / (-1j * AMP) - 1) < 1e-9
+                # the loop delays the rear road by wheelbase/speed
+                assert abs(Wr / Wf - np.exp(-2j * np.pi * f * tau)) < 1e-9
+                Ys.append({ch: sine_amplitude(t, ts[ch].to_numpy(), f, win, modes) / Wf for ch in outputs})
+                Es.append(np.exp(-2j * np.pi * f * tau))
+            # Y_n = H_front + H_rear·e_n  (n = 1, 2)  ->  both columns of the 2-input transfer function
+            E = np.array([[1, Es[0]], [1, Es[1]]])
+            for ch in outputs:
+                Hsim = np.linalg.solve(E, np.array([Ys[0][ch], Ys[1][ch]]))
+                Han = H[ch][0]
+                errors[(name, ch, round(f, 3))] = np.linalg.norm(Hsim - Han) / np.linalg.norm(Han)
+    worst = max(errors, key=errors.get)
+    print(f"half_car: worst error {errors[worst]:.2e} at {worst}")
+    bad = {k: f"{v:.2e}" for k, v in errors.items() if v > TOL}
+    assert not bad, f"half car frequency response off by more than {TOL:.1%}: {bad}"
+
+
+# ------------------------------------------------------------------------------------------------------
+# natural frequencies: linearise the MuJoCo plant (the loop's step map, road held) and compare eigenvalues
+def mujoco_eigenvalues(model, vp, dt):
+    sim = Simulation([scenario(model, vp, duration=dt, dt=dt)])
+    P = sim.plant
+    m = P.model
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    nv = m.nv
+    A = np.zeros((2 * nv, 2 * nv))
+    mujoco.mjd_transitionFD(m, d, 1e-6, True, A, None, None, None)
+    idx = np.concatenate([P.free_v, nv + P.free_v])  # road plates are set by the loop every step
+    mu = np.linalg.eigvals(A[np.ix_(idx, idx)]).astype(complex)
+    s = np.log(mu) / dt
+    s = s[s.imag > 1e-9]
+    return s[np.argsort(np.abs(s))]
+
+
+@pytest.mark.parametrize("model,vp", [("quarter_car", {}), ("half_car", {}), ("half_car", ASYM_HALF), ("sdof", {})],
+                         ids=["quarter_car", "half_car", "half_car_asymmetric", "sdof"])
+def test_natural_frequencies(model, vp):
+    """Natural frequencies and damping ratios of the MuJoCo model (discrete eigenvalues s = ln(μ)/dt) match
+    the analytic model's within 0.5 % at the default dt, and the remaining difference is the integrator's
+    first-order error: it halves when dt halves."""
+    sa = analytic(model, params(model, **vp)).eigenvalues()
+    errs = {}
+    for dt in (5e-4, 2.5e-4):
+        sm = mujoco_eigenvalues(model, vp, dt)
+        assert len(sm) == len(sa)
+        fn_err = np.abs(sm) / np.abs(sa) - 1
+        zeta_err = (-sm.real / np.abs(sm)) / (-sa.real / np.abs(sa)) - 1
+        errs[dt] = np.concatenate([fn_err, zeta_err])
+        assert np.all(np.abs(fn_err) < TOL), (dt, np.abs(sa) / 2 / np.pi, fn_err)
+        assert np.all(np.abs(zeta_err) < TOL), (dt, -sa.real / np.abs(sa), zeta_err)
+    big = np.abs(errs[5e-4]) > 1e-4  # the ratio is meaningful where the error is well above FD noise
+    ratio = np.abs(errs[5e-4][big] / errs[2.5e-4][big])
+    assert np.all((ratio > 1.7) & (ratio < 2.3)), ratio
+
+
+# ------------------------------------------------------------------------------------------------------
+# static sag: add Δm to the sprung mass (vehicle.variations step at t = 0) and let it settle
+def _settle(model, vp, dm, duration=8.0):
+    sc = scenario(model, vp, duration=duration, dt=5e-4, log_dt=0.01,
+                  variations=[dict(param="sprung_mass", kind="step", mode="add", times=[0.0], values=[dm])])
+    ts = Simulation([sc]).run()[0].ts
+    return ts[ts["t"] >= duration - 1.0].mean()
+
+
+def test_static_sag_quarter_car():
+    p, dm = params("quarter_car"), 60.0
+    s = _settle("quarter_car", {}, dm)
+    F = dm * G
+    assert s["travel"] == pytest.approx(-F / p.spring_stiffness, rel=1e-3)  # m·g/k
+    assert s["wheel_z"] == pytest.approx(-F / p.tire_stiffness, rel=1e-3)
+    assert s["body_z"] == pytest.approx(-F / p.spring_stiffness - F / p.tire_stiffness, rel=1e-3)
+    assert s["tire_force"] == pytest.approx(F, rel=1e-3)  # dynamic tire load, + = more compression
+
+
+@pytest.mark.parametrize("vp", [{}, ASYM_HALF], ids=["default", "asymmetric"])
+def test_static_sag_half_car(vp):
+    p, dm = params("half_car", **vp), 100.0
+    s = _settle("half_car", vp, dm)
+    L = p.a + p.b
+    Ff, Fr = dm * G * p.b / L, dm * G * p.a / L  # the added weight at the c.g., shared by the axles
+    assert s["travel_front"] == pytest.approx(-Ff / p.spring_stiffness_front, rel=1e-3)
+    assert s["travel_rear"] == pytest.approx(-Fr / p.spring_stiffness_rear, rel=1e-3)
+    assert s["wheel_z_front"] == pytest.approx(-Ff / p.tire_stiffness_front, rel=1e-3)
+    assert s["tire_force_rear"] == pytest.approx(Fr, rel=1e-3)
+    zf = -Ff / p.spring_stiffness_front - Ff / p.tire_stiffness_front  # body point above the front axle
+    zr = -Fr / p.spring_stiffness_rear - Fr / p.tire_stiffness_rear
+    assert s["body_z"] == pytest.approx((p.b * zf + p.a * zr) / L, rel=1e-3)
+    assert s["pitch"] == pytest.approx((zr - zf) / L, abs=1e-3 * abs(zf) / L + 1e-9)  # nose down when zf < zr
+
+
+# ------------------------------------------------------------------------------------------------------
+# SDOF rig (no tire): free response after a mass step and force-input step response
+def _sdof_step_response(t, x0, m, k, c):
+    """Deviation from the final equilibrium of m x'' + c x' + k x = 0 with x(0) = x0, x'(0) = 0, and its
+    acceleration."""
+    wn = np.sqrt(k / m)
+    z = c / (2 * np.sqrt(k * m))
+    wd = wn * np.sqrt(1 - z * z)
+    e = np.exp(-z * wn * t)
+    x = x0 * e * (np.cos(wd * t) + z * wn / wd * np.sin(wd * t))
+    v = -x0 * wn**2 / wd * e * np.sin(wd * t)
+    return x, -(k * x + c * v) / m
+
+
+def _nrmse(a, b):
+    return float(np.sqrt(np.mean((a - b) ** 2)) / np.sqrt(np.mean(b**2)))
+
+
+def test_sdof_free_response():
+    """+50 kg at t = 0: the mass falls from the old equilibrium to the new one, sag Δm·g/K, as the analytic
+    damped oscillation (M = 300 kg, K = 5000 N/m, C = 250 N·s/m, ζ ≈ 0.10)."""
+    p, dm = params("sdof"), 50.0
+    sc = scenario("sdof", {}, duration=10.0, dt=5e-4, log_dt=1e-3,
+                  variations=[dict(param="sprung_mass", kind="step", mode="add", times=[0.0], values=[dm])])
+    ts = Simulation([sc]).run()[0].ts
+    assert not any(c.startswith(("wheel", "tire")) for c in ts.columns)  # no tire, no wheel
+    t = ts["t"].to_numpy()
+    sag = dm * G / p.spring_stiffness
+    x, a = _sdof_step_response(t, sag, p.sprung_mass + dm, p.spring_stiffness, p.damping)
+    assert _nrmse(ts["body_z"].to_numpy() + sag, x) < TOL
+    assert _nrmse(ts["body_acc"].to_numpy(), a) < TOL
+    np.testing.assert_allclose(ts["travel"], ts["body_z"], atol=1e-12)  # flat base: travel = body position
+
+
+def test_sdof_force_input():
+    """Flat road (base at rest): the rig driven by the actuator alone, a 500 N step from t = 0 (open-loop
+    command, ideal actuator): x = F/K·(1 − free response)."""
+    p, F = params("sdof"), 500.0
+    sc = scenario("sdof", {}, duration=10.0, dt=5e-4, log_dt=1e-3,
+                  controller=dict(type="open_loop", params=dict(signal="constant", amplitude=F)))
+    ts = Simulation([sc]).run()[0].ts
+    t = ts["t"].to_numpy()
+    x, a = _sdof_step_response(t, -F / p.spring_stiffness, p.sprung_mass, p.spring_stiffness, p.damping)
+    assert np.allclose(ts["actuator_force"], F)
+    assert _nrmse(ts["body_z"].to_numpy() - F / p.spring_stiffness, x) < TOL
+    assert _nrmse(ts["body_acc"].to_numpy(), a) < TOL
+
+
+# ------------------------------------------------------------------------------------------------------
+# the MJCF files and the half car's geometry
+@pytest.mark.parametrize("name", ["quarter_car", "half_car", "sdof"])
+def test_mjcf_alone_at_equilibrium(name):
+    """Each file loads in MuJoCo by itself, its spring lengths are the static preloads, and it stays at
+    qpos = 0 under gravity (up to the road servos' compliance, load/kp ≈ 3e-6 m)."""
+    path = models_dir() / f"{name}.xml"
+    m = mujoco.MjModel.from_xml_path(str(path))
+    stored = m.tendon_lengthspring[:, 0].copy()
+    np.testing.assert_allclose(stored, equilibrium_preloads(mujoco.MjModel.from_xml_path(str(path)))[0],
+                               rtol=1e-4)
+    d = mujoco.MjData(m)
+    for _ in range(int(2.0 / m.opt.timestep)):
+        mujoco.mj_step(m, d)
+    assert np.abs(d.qpos).max() < 1e-5 and np.abs(d.qvel).max() < 1e-5
+    assert m.ngeom > 0 and not (m.geom_contype | m.geom_conaffinity).any()  # visible, no contacts
+
+
+def test_half_car_geometry_and_pitch_sign():
+    """a, b move the wheels and road plates and set the tendons' pitch coefficients; a positive pitch (MuJoCo
+    hinge about +y) moves the front down: nose down, front travel −a·θ, rear travel +b·θ."""
+    vp = dict(a=1.1, b=1.9)
+    root = VEHICLES.get("half_car").build(params("half_car", **vp))
+    m = mujoco.MjModel.from_xml_string(root.to_xml_string())
+    d = mujoco.MjData(m)
+    assert m.body("wheel_front").pos[0] == pytest.approx(1.1) and m.body("road_rear").pos[0] == pytest.approx(-1.9)
+    theta = 0.01
+    d.qpos[m.joint("pitch").qposadr[0]] = theta
+    mujoco.mj_forward(m, d)
+    nose0 = m.body("body").pos[2] + m.geom("body_nose").pos[2]
+    assert d.geom("body_nose").xpos[2] < nose0 - 0.9 * 1.1 * theta
+    assert d.ten_length[m.tendon("suspension_front").id] == pytest.approx(-1.1 * theta)
+    assert d.ten_length[m.tendon("suspension_rear").id] == pytest.approx(1.9 * theta)
+    cg = [c.x for c in VEHICLES.get("half_car").corners(params("half_car", **vp))]
+    assert cg == [1.1, -1.9]
+
+
+def test_half_car_rear_road_delay_varying_speed():
+    """With a speed ramp the rear wheel sees the road where the front axle was: spatial sine at the front
+    axle's distance x(t) − L, temporal sine at the time the front axle was there.  One ensemble of two cars
+    with different wheelbases (3.0 and 2.9 m): each car's own wheelbase sets its delay."""
+    A, lam, f = 0.01, 2.0, 1.5
+    speed = [[0.0, 5.0], [2.0, 25.0]]  # v = 5 + 10 t, x = 5t + 5t²
+    t_of_x = lambda x: (-5 + np.sqrt(25 + 20 * x)) / 10  # noqa: E731
+    cars = [({}, 3.0), (ASYM_HALF, 2.9)]
+    for road in (dict(type="sine", params=dict(wavelength=lam, amplitude=A)),
+                 dict(type="sine", params=dict(frequency=f, amplitude=A))):
+        scs = [scenario("half_car", vp, road, speed=speed, duration=2.0, dt=5e-4, log_dt=1e-3) for vp, _ in cars]
+        for r, (_, L) in zip(Simulation(scs).run(), cars):
+            ts = r.ts
+            t = ts["t"].to_numpy()
+            xr = 5 * t + 5 * t**2 - L
+            if "wavelength" in road["params"]:
+                front, rear = A * np.sin(2 * np.pi * (xr + L) / lam), A * np.sin(2 * np.pi * xr / lam)
+            else:
+                front, rear = A * np.sin(2 * np.pi * f * t), A * np.sin(2 * np.pi * f * t_of_x(np.maximum(xr, 0)))
+            rear = np.where(xr >= 0, rear, 0.0)
+            np.testing.assert_allclose(ts["road_front"], front, atol=1e-9)
+            np.testing.assert_allclose(ts["road_rear"], rear, atol=1e-6)
