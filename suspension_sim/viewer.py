@@ -796,6 +796,9 @@ class LiveView:
         self._last_t = -np.inf
         self._last_text = -np.inf
         self._wall0 = None
+        from meshcat.commands import Delete
+
+        self._send_all([Delete(_path(ROOT))])  # a previous run's scene (variants share one server)
         self._send_all(_base_commands(scene.size))
         self._send_all(camera_commands(camera, scene.size))
         self._send_all(scene.static_commands())
@@ -838,6 +841,9 @@ class LiveView:
         return True
 
 
+_SHARED: LiveServer | None = None  # one live server per process, reused by the variants of a run
+
+
 def attach_live_viewer(sim, console=None, rate: float | None = None, fps: float = 30.0, camera: str = "three_quarter",
                        server: LiveServer | None = None, car: int = 0, wait: float | None = None,
                        open_browser: bool | None = None) -> LiveView:
@@ -855,7 +861,11 @@ def attach_live_viewer(sim, console=None, rate: float | None = None, fps: float 
         wait = float(os.environ.get("SUSPENSION_SIM_VIEW_WAIT", "30" if interactive else "0"))
     if open_browser is None:
         open_browser = interactive
-    server = server or LiveServer()
+    global _SHARED
+    if server is None:
+        if _SHARED is None or _SHARED.proc.poll() is not None:
+            _SHARED = LiveServer()
+        server = _SHARED
     vis = server.visualizer()
     P = sim.plant
     info = {"suffixes": P.suffixes, "corner_x": sim.geom.corner_x, "corner_y": sim.geom.corner_y,

@@ -252,3 +252,13 @@ def test_write_result_outputs_and_commands(tmp_path):
     assert (runs[0] / "viewer.html").exists()
     res = CliRunner().invoke(app, ["view", str(tmp_path)])
     assert res.exit_code == 2 and "not a run folder" in res.output
+
+
+def test_replay_of_a_finished_run_streams_every_frame(quarter):
+    view = V.replay_live(quarter, rate=0.0, fps=25)
+    try:
+        n = len(V.frame_times(float(quarter.timeseries["t"].iloc[-1]), 25))
+        assert view.sent_frames == n
+        assert view._last_t == pytest.approx(quarter.timeseries["t"].iloc[-1], abs=1 / 25)
+    finally:
+        view.server.close()
