@@ -34,6 +34,10 @@ def load_run(run_dir) -> "object":
     from .results import Result
 
     d = Path(run_dir)
+    subs = sorted(p.parent.name for p in d.glob("*/timeseries.parquet")) if d.is_dir() else []
+    if subs and not (d / "timeseries.parquet").exists():
+        raise ScenarioError(f"a run folder with variants: give one of its variant folders ({', '.join(subs)})",
+                            source=str(d))
     if not (d / "summary.json").exists():
         raise ScenarioError("not a run folder (no summary.json)", source=str(d))
     summary = json.loads((d / "summary.json").read_text())

@@ -56,6 +56,8 @@ ARROW_MAX = 1.2
 ARROW_LENGTH = 0.3  # drawn length of the arrow model (scaled in z)
 DEFAULT_GAP = 0.08  # travel shown red when the run has no bump stop (m)
 ROAD_DEPTH = 0.04
+ROAD_DX = 0.05  # road profile sampling (m) for the drawn surface
+ROAD_POINTS = 6000  # at most this many samples per track (coarser on long runs)
 TARGET_Z = 0.55  # the scene is shifted down by this, so the camera (which looks at the origin) sees the car
 
 BODY_COLOR = 0x3366CC
@@ -126,7 +128,7 @@ def usage_color(u: np.ndarray) -> np.ndarray:
 # ------------------------------------------------------------------------------------------------------------
 # geometry builders
 def _helix_mesh(length: float, radius: float = SPRING_R, wire: float = 0.011, turns: int = 7,
-                n_path: int = 240, n_ring: int = 8):
+                n_path: int = 150, n_ring: int = 6):
     """A coil spring along +z from 0 to ``length`` as a triangle tube (vertices, faces)."""
     s = np.linspace(0.0, 1.0, n_path)
     phi = 2 * np.pi * turns * s
@@ -160,7 +162,7 @@ class RoadProfile:
         return np.interp(x, self.x, self.z[track])
 
 
-def _resample(xs: np.ndarray, zs: np.ndarray, max_points: int = 20000, dx_min: float = 0.02):
+def _resample(xs: np.ndarray, zs: np.ndarray, max_points: int = 8000, dx_min: float = 0.02):
     order = np.argsort(xs, kind="stable")
     xs, zs = xs[order], zs[order]
     keep = np.concatenate([[True], np.diff(xs) > 1e-9])
@@ -238,10 +240,12 @@ class CarScene:
 
         lam = g.MeshLambertMaterial
         out.append(SetTransform(_matrix([0, self.y_offset, 0]), P(self.p())))
-        obj(self.p("body", "box"), g.Box([self.body_len, self.body_w, self.body_h]), lam(color=BODY_COLOR))
-        # a darker roof line so pitch and roll read well
+        xm = float(self.cx.max() + self.cx.min()) / 2  # the body node turns about the c.g. (x = 0)
+        obj(self.p("body", "box"), g.Box([self.body_len, self.body_w, self.body_h]), lam(color=BODY_COLOR),
+            _matrix([xm, 0, 0]))
+        # a darker roof panel (towards the rear) so pitch and roll read well
         obj(self.p("body", "roof"), g.Box([self.body_len * 0.6, self.body_w * 0.8, 0.02]), lam(color=0x22447F),
-            _matrix([-0.05 * self.body_len, 0, self.body_h / 2 + 0.01]))
+            _matrix([xm - 0.05 * self.body_len, 0, self.body_h / 2 + 0.01]))
         for c, s in enumerate(self.sfx):
             name = s.lstrip("_") or "single"
             x, y = self.cx[c], self.cy[c]
@@ -421,7 +425,7 @@ def road_profile_from_log(ts, info, distance) -> RoadProfile | None:
     # one common grid, extended flat on both sides so the road reaches beyond the car
     lo = min(g[0] for g in xs_all) - 8.0
     hi = max(g[-1] for g in xs_all) + 25.0
-    n = int(min(40000, max(xs_all[0].size + 2, (hi - lo) / 0.02)))
+    n = int(min(ROAD_POINTS, max(2, (hi - lo) / ROAD_DX)))
     grid = np.linspace(lo, hi, n)
     Z = np.stack([np.interp(grid, gx, gz) for gx, gz in zip(xs_all, zs_all)])
     width = 0.75 if n_tracks == 1 else min(0.6, max(0.3, abs(tys[0] - tys[-1]) - 0.1))
@@ -441,7 +445,7 @@ def road_profile_from_sim(sim, i: int = 0) -> RoadProfile | None:
     geom = sim.geom
     back = float(np.max(sim.corner_back))
     lo, hi = float(x_run.min()) - back - 8.0, float(x_run.max()) + 25.0
-    n = int(min(40000, (hi - lo) / 0.02))
+    n = int(min(ROAD_POINTS, (hi - lo) / ROAD_DX))
     grid = np.linspace(lo, hi, n)
     info = {"suffixes": geom.suffixes, "corner_x": geom.corner_x, "corner_y": geom.corner_y,
             "corner_track": geom.tracks}
