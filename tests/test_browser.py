@@ -182,6 +182,14 @@ def test_viewer_html_from_disk(driver, run, shots):
     show_time(driver, t1)
     again = central(png_array(driver.get_screenshot_as_png()), 0.8)
     assert np.abs(again - a).mean() < 1.0
+    # play advances the animation time, pause holds it
+    driver.execute_script("window.suspensionSim.play()")
+    time.sleep(0.4)
+    driver.execute_script("window.suspensionSim.pause()")
+    t_paused = driver.execute_script("return window.suspensionSim.time()")
+    assert t_paused > t1 + 0.05
+    time.sleep(0.2)
+    assert driver.execute_script("return window.suspensionSim.time()") == t_paused
     errors = [e for e in driver.get_log("browser") if e.get("level") == "SEVERE"]
     assert not errors, errors
 
