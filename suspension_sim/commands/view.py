@@ -73,8 +73,11 @@ def serve(folder: Path, page: str, port: int, open_browser: bool, console) -> No
     import http.server
     import threading
 
-    handler = functools.partial(http.server.SimpleHTTPRequestHandler, directory=str(folder))
-    handler.log_message = lambda *a, **k: None
+    class Quiet(http.server.SimpleHTTPRequestHandler):
+        def log_message(self, *args):
+            pass
+
+    handler = functools.partial(Quiet, directory=str(folder))
     httpd = http.server.ThreadingHTTPServer(("127.0.0.1", port), handler)
     url = f"http://127.0.0.1:{httpd.server_address[1]}/{page}"
     console.print(f"viewer: [bold]{url}[/] (Ctrl-C to stop; the file also opens directly: {folder / page.split('#')[0]})")
