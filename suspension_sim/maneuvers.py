@@ -147,3 +147,7 @@ def build_maneuver(scenarios, plant, source=None) -> AppliedManeuver:
         raise ScenarioError(f"lateral manoeuvre needs a model with roll (model {plant.vcls.name!r} has "
                             f"{list(joints)})", source=source, field="vehicle.maneuver")
     return AppliedManeuver(mans, plant, masses, heights)
+
+
+# full-car manoeuvres in their own modules (they import MANEUVERS from here, so import them last)
+from . import maneuvers_dlc  # noqa: E402,F401  (ISO 3888-1 double lane change)
