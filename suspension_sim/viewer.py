@@ -216,6 +216,7 @@ class CarScene:
         self.base_z = WHEEL_R if self.has_tire else 0.05  # lower spring seat at equilibrium
         self.spring_len0 = BODY_Z - self.body_h / 2 - self.base_z
         self.moving_road = road is not None
+        self.show_label = False  # a 3D name plate above the car (comparisons)
 
     # ---- paths
     def p(self, *names) -> str:
@@ -277,6 +278,11 @@ class CarScene:
                     lam(color=0x555559), _matrix([0, (self.spring_y[c] - y) / 2, -0.01]))
         if self.moving_road:
             out.extend(self._road_commands())
+        if self.show_label and self.label:
+            # a name plate above the car, facing the front camera (+x)
+            geom, mat = _text_object(self.label, font_size=40)
+            obj(self.p("label"), geom, mat,
+                _matrix([0, 0, BODY_Z + 0.9], _quat_xyzw_axis("z", np.pi / 2), [1.4, 1, 1.4]))
         return out
 
     def _road_commands(self) -> list:
@@ -617,6 +623,7 @@ def write_compare_viewer(results: Mapping[str, object], path, fps: float | None 
     scenes = []
     for k, (label, r) in enumerate(results.items()):
         s = scene_from_result(r, label=label, prefix=f"car{k}")
+        s.show_label = True
         scenes.append((s, r))
     widths = [s.body_w + 1.2 for s, _ in scenes]
     y = -sum(widths) / 2  # first run on the left seen from the front camera (screen right = +y)
@@ -783,10 +790,10 @@ class LiveServer:
                 self.proc.kill()
 
 
-def _text_object(text: str):
+def _text_object(text: str, font_size: int = 64):
     import meshcat.geometry as g
 
-    tex = g.GenericTexture({"type": "_text", "text": text, "font_size": 64, "font_face": "monospace"})
+    tex = g.GenericTexture({"type": "_text", "text": text, "font_size": font_size, "font_face": "monospace"})
     return g.Box([1.6, 0.001, 1.6]), g.MeshBasicMaterial(map=tex, transparent=True, opacity=1.0, color=0xFFFFFF, side=0)
 
 
