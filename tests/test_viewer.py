@@ -250,7 +250,10 @@ def test_write_result_outputs_and_commands(tmp_path):
     res = CliRunner().invoke(app, ["view", str(runs[0]), "--write-only"])
     assert res.exit_code == 0, res.output
     assert (runs[0] / "viewer.html").exists()
-    res = CliRunner().invoke(app, ["view", str(tmp_path)])
+    res = CliRunner().invoke(app, ["view", str(tmp_path)])  # holds two runs: a one-line error naming them
+    assert res.exit_code == 2 and "give one of its variant folders (passive, skyhook)" in res.output
+    (tmp_path / "empty").mkdir()
+    res = CliRunner().invoke(app, ["view", str(tmp_path / "empty")])
     assert res.exit_code == 2 and "not a run folder" in res.output
 
 
