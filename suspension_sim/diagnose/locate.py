@@ -1,0 +1,146 @@
+"""Where the calibrated model disagrees with the data, each against a noise floor estimated from the data:
+
+- :func:`windows`: residual RMS per channel in consecutive time windows, flagged where it exceeds 3× the
+  channel's noise floor;
+- :func:`spectra`: Welch PSD of the residual against the (white) noise-floor level, the frequency band where
+  the residual rises more than 10 dB above it, and the coherence of the residual with each input;
+- :func:`force_map`: the residual *force* across the suspension by inverse dynamics where an acceleration
+  is measured (quarter car: ``m_s·z̈_s`` measured minus the model's suspension force at the measured travel
+  and travel rate; SDOF: ``m·ẍ`` − model force; for the SDOF a measured position is differentiated twice
+  when no acceleration is measured; damper: measured − model force), averaged in bins of travel × travel
+  rate, with the standard error of each bin's mean from the acceleration noise floor.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import coherence, welch
+
+from . import fastsim as fs
+
+
+def windows(t, resid, channels, floors, n_win: int = 20) -> dict:
+    out = {"t_start": [], "t_end": [], "rms": {c: [] for c in channels}, "flagged": []}
+    idx = np.array_split(np.arange(len(t)), n_win)
+    for w in idx:
+        if len(w) == 0:
+            continue
+        out["t_start"].append(float(t[w[0]]))
+        out["t_end"].append(float(t[w[-1]]))
+        flag = False
+        for i, c in enumerate(channels):
+            r = float(np.sqrt(np.mean(resid[w, i] ** 2)))
+            out["rms"][c].append(r)
+            if floors[c]["value"] > 0 and r > 3 * floors[c]["value"]:
+                flag = True
+        out["flagged"].append(flag)
+    return out
+
+
+def spectra(resid, inputs: dict, channels, floors, fs_hz: float) -> dict:
+    out = {}
+    nper = int(min(len(resid), max(256, 2 ** int(np.log2(fs_hz * 4)))))
+    for i, c in enumerate(channels):
+        f, p = welch(resid[:, i], fs=fs_hz, nperseg=nper)
+        level = floors[c]["value"] ** 2 / (fs_hz / 2)
+        above = p > 10 * level if level > 0 else np.zeros_like(p, bool)
+        band = [float(f[above].min()), float(f[above].max())] if above.any() else None
+        coh = {}
+        for name, u in inputs.items():
+            if np.std(u) == 0:
+                continue
+            fc, cc = coherence(u, resid[:, i], fs=fs_hz, nperseg=nper)
+            k = int(np.argmax(cc[1:])) + 1
+            coh[name] = {"max": float(cc[k]), "at_hz": float(fc[k]), "mean_below_50hz": float(np.mean(cc[(fc > 0) & (fc < 50)]))}
+        out[c] = {"f": f, "psd": p, "floor_psd": level, "band_above_floor_hz": band, "coherence": coh,
+                  "peak_hz": float(f[1 + int(np.argmax(p[1:]))])}
+    return out
+
+
+def force_map(prob, P: np.ndarray, floors: dict, a: int, b: int, nbins: int = 12) -> dict | None:
+    """Residual suspension force over travel × travel rate on samples [a, b) (None when it cannot be formed)."""
+    rec = prob.rec
+    o, dt = rec.outputs, rec.dt
+    kind = rec.kind
+    if kind == "quarter_car":
+        if "body_acc" not in o or "susp_travel" not in o:
+            return None
+        s = o["susp_travel"][a:b]
+        acc = o["body_acc"][a:b]
+        m = P[fs.MS]
+        sig_acc = floors.get("body_acc", {}).get("value", 0.0)
+        note = "m_s·(measured body acceleration) − model suspension force at the measured travel and rate"
+    elif kind == "sdof":
+        if "pos" not in o:
+            return None
+        base = prob.inputs["road"][a:b]
+        s = o["pos"][a:b] - base
+        if "acc" in o:
+            acc = o["acc"][a:b]
+            sig_acc = floors.get("acc", {}).get("value", 0.0)
+            note = "m·(measured acceleration) − model force"
+        else:
+            acc = np.gradient(np.gradient(o["pos"][a:b], dt), dt)
+            # noise of (x[k+2] − 2x[k] + x[k−2]) / (4 dt²) for white position noise σ
+            sig_acc = floors.get("pos", {}).get("value", 0.0) * np.sqrt(6) / (4 * dt ** 2)
+            note = "m·(position differentiated twice) − model force"
+        m = P[fs.MS]
+    else:
+        s = prob.inputs["road"][a:b]
+        acc = None
+        m = 0.0
+        sig_acc = floors.get("force", {}).get("value", 0.0)
+        note = "measured force − model force"
+    v = np.gradient(s, dt) if kind != "damper" else prob.inputs["roaddot"][a:b]
+    Fsusp = np.array([fs.susp_force(P, si, vi, 0.0, 0.0) for si, vi in zip(s, v)]) if len(s) < 5000 else \
+        _susp_force_vec(P, s, v)
+    if kind == "damper":
+        resid = o["force"][a:b] - (-Fsusp)
+        sig = sig_acc
+    else:
+        fa = P[fs.GAIN] * prob.inputs["force"][a:b] + P[fs.OFFS] if prob.has_force else 0.0
+        resid = m * acc - (Fsusp + fa)
+        sig = m * sig_acc
+    se = np.quantile(s, [0.01, 0.99])
+    ve = np.quantile(v, [0.01, 0.99])
+    sb = np.linspace(se[0], se[1], nbins + 1)
+    vb = np.linspace(ve[0], ve[1], nbins + 1)
+    i = np.clip(np.digitize(s, sb) - 1, 0, nbins - 1)
+    j = np.clip(np.digitize(v, vb) - 1, 0, nbins - 1)
+    mean = np.full((nbins, nbins), np.nan)
+    cnt = np.zeros((nbins, nbins), int)
+    np.add.at(cnt, (i, j), 1)
+    tot = np.zeros((nbins, nbins))
+    np.add.at(tot, (i, j), resid)
+    ok = cnt >= 5
+    mean[ok] = tot[ok] / cnt[ok]
+    sem = np.where(ok, max(sig, 1e-12) / np.sqrt(np.maximum(cnt, 1)), np.nan)
+    zmap = np.abs(mean) / sem
+    # 1-D profiles against travel rate and against travel
+    prof_v = _profile(v, resid, 24)
+    prof_s = _profile(s, resid, 24)
+    return {"s_edges": sb, "v_edges": vb, "mean": mean, "count": cnt, "z": zmap, "note": note,
+            "rms_residual_force": float(np.sqrt(np.mean((resid - resid.mean()) ** 2))), "noise_force": float(sig),
+            "max_abs_z": float(np.nanmax(zmap)) if np.isfinite(zmap).any() else None,
+            "profile_v": prof_v, "profile_s": prof_s}
+
+
+def _profile(x, r, n):
+    e = np.quantile(x, np.linspace(0.01, 0.99, n + 1))
+    e = np.unique(e)
+    k = np.clip(np.digitize(x, e) - 1, 0, len(e) - 2)
+    c = np.bincount(k, minlength=len(e) - 1)
+    m = np.bincount(k, weights=r, minlength=len(e) - 1) / np.maximum(c, 1)
+    return {"x": 0.5 * (e[1:] + e[:-1]), "mean": m, "count": c}
+
+
+def _susp_force_vec(P, s, v):
+    F = -P[fs.K] * s - P[fs.C] * v
+    if P[fs.CF]:
+        F -= P[fs.CF] * np.tanh(v / P[fs.VEPS])
+    F -= P[fs.CV] * v * np.abs(v)
+    F -= np.where(v > 0, P[fs.CREB], P[fs.CCOMP]) * v
+    if P[fs.KSTOP]:
+        F += P[fs.KSTOP] * (np.maximum(-P[fs.GAP] - s, 0) - np.maximum(s - P[fs.GAP], 0))
+    F -= P[fs.K3] * s ** 3
+    # stateful effects (hysteresis, backlash) are left out of the map: they are what the map should reveal
+    return F

@@ -1,0 +1,189 @@
+"""Synthetic "measured" records with a hidden effect, for testing and benchmarking the discrepancy workflow
+ONLY (the workflow itself never imports this module).
+
+The truth is integrated by scipy ``solve_ivp`` (DOP853, step ≤ the sample interval) with its own,
+independent implementation of every effect (written from the physics, sharing no code with
+:mod:`suspension_sim.effects` or :mod:`.fastsim`); inputs are random continuous functions of time (sums of
+random sines: a road and a force command); sensor noise is white and Gaussian.  Coulomb friction uses
+``tanh(v/2 mm/s)`` here, sharper than the fitted model's regularisation, and the actuator delay is exact
+(the input function evaluated at ``t − d``), so the fitted model never has the truth's exact form.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+G = 9.81
+
+QC_NOMINAL = {"sprung_mass": 290.0, "unsprung_mass": 59.0, "spring_stiffness": 16812.0, "damping": 1000.0,
+              "tire_stiffness": 190000.0, "tire_damping": 0.0}
+SDOF_NOMINAL = {"sprung_mass": 250.0, "spring_stiffness": 5000.0, "damping": 250.0}
+
+
+def random_signal(rng, duration, f_lo, f_hi, rms, n_lines=40):
+    """A random continuous signal (sum of sines with random frequencies in [f_lo, f_hi], 1/f amplitudes for a
+    road-like spectrum) and its derivative, as functions of t; RMS ≈ ``rms``."""
+    f = np.exp(rng.uniform(np.log(f_lo), np.log(f_hi), n_lines))
+    a = 1.0 / f ** 0.5
+    a *= rms / np.sqrt(0.5 * np.sum(a ** 2))
+    ph = rng.uniform(0, 2 * np.pi, n_lines)
+    w = 2 * np.pi * f
+
+    def x(t):
+        t = np.asarray(t, float)
+        return np.sum(a[:, None] * np.sin(w[:, None] * np.atleast_1d(t)[None, :] + ph[:, None]), axis=0).reshape(t.shape)
+
+    def xd(t):
+        t = np.asarray(t, float)
+        return np.sum((a * w)[:, None] * np.cos(w[:, None] * np.atleast_1d(t)[None, :] + ph[:, None]), axis=0).reshape(t.shape)
+
+    ramp = min(1.0, duration / 10)
+    # tabulate on a fine grid (16 points per sample of a 1 kHz record) for fast evaluation in the ODE
+    h = 1.0 / 16000.0
+    tg = np.arange(-0.5, duration + 1.0, h)
+    env = np.clip(tg / ramp, 0, 1)
+    xg = x(tg) * env
+    xdg = xd(tg) * env + x(tg) * ((tg >= 0) & (tg < ramp)) / ramp
+    return _Tab(tg[0], h, xg), _Tab(tg[0], h, xdg)
+
+
+class _Tab:
+    """A tabulated function of time, linearly interpolated (scalar calls are fast)."""
+
+    def __init__(self, t0, h, y):
+        self.t0, self.h, self.y, self.n = t0, h, y, len(y)
+
+    def __call__(self, t):
+        if np.ndim(t) == 0:
+            u = (float(t) - self.t0) / self.h
+            i = min(max(int(u), 0), self.n - 2)
+            f = u - i
+            return self.y[i] * (1 - f) + self.y[i + 1] * f
+        return np.interp(np.asarray(t, float), self.t0 + self.h * np.arange(self.n), self.y)
+
+
+def _suspension_extra(effects: dict, s, v, st):
+    """Extra suspension force of the hidden effects (positive pushes the body up). ``st`` = internal states."""
+    F = 0.0
+    for name, p in effects.items():
+        if name == "coulomb_friction":
+            F += -p["force"] * math.tanh(v / 0.002)
+        elif name == "quadratic_damping":
+            F += -p["c_v"] * v * abs(v)
+        elif name == "asymmetric_damping":
+            F += -(p.get("c_reb", 0.0) if v > 0 else p.get("c_comp", 0.0)) * v
+        elif name == "bump_stop":
+            g, k = p["gap"], p["stiffness"]
+            if s > g:
+                F += -k * (s - g)
+            elif s < -g:
+                F += k * (-g - s)
+        elif name == "cubic_stiffness":
+            F += -p["k3"] * s ** 3
+        elif name == "hysteresis":
+            F += -p["force"] * st["w"]
+        elif name == "backlash":
+            F += -p["stiffness"] * st["y"]
+    return F
+
+
+def simulate_truth(kind: str, duration: float, fs: float, effects: dict, params: dict | None = None,
+                   seed: int = 0, road_rms: float = 0.01, force_rms: float = 0.0, noise: float = 0.01,
+                   outputs: list[str] | None = None, band=(0.3, 15.0)):
+    """A synthetic record: dict with ``time``, inputs and noisy outputs (noise std = ``noise`` × the channel's
+    std), plus ``_clean`` (noise-free outputs).  ``kind``: quarter_car, sdof or damper.  ``effects`` maps
+    effect names to parameters; ``actuator_delay`` {delay} and ``actuator_lag`` {time_constant} act on the
+    force input."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(round(duration * fs))) / fs
+    p = dict(QC_NOMINAL if kind == "quarter_car" else SDOF_NOMINAL)
+    p.update(params or {})
+    road, roadd = random_signal(rng, duration, band[0], band[1], road_rms) if road_rms > 0 else (
+        (lambda tt: np.zeros_like(np.asarray(tt, float))),) * 2
+    force, _ = random_signal(rng, duration, band[0], band[1] * 1.5, force_rms) if force_rms > 0 else (
+        (lambda tt: np.zeros_like(np.asarray(tt, float))), None)
+    delay = effects.get("actuator_delay", {}).get("delay", 0.0)
+    tau = effects.get("actuator_lag", {}).get("time_constant", 0.0)
+    eff = {k: v for k, v in effects.items() if not k.startswith("actuator_")}
+    lift = "tire_liftoff" in eff
+
+    if kind == "damper":
+        amp = road_rms if road_rms > 0 else 0.02
+        d, dd = random_signal(rng, duration, 0.2, 5.0, amp)
+        s, v = d(t), dd(t)
+        st = {"w": 0.0, "y": 0.0}
+        F = np.empty_like(t)
+        for i in range(len(t)):
+            if i:
+                ds = s[i] - s[i - 1]
+                # Bouc–Wen by sub-divided explicit steps on the travel increment
+                if "hysteresis" in eff:
+                    xy = eff["hysteresis"]["x_y"]
+                    for _ in range(20):
+                        w = st["w"]
+                        st["w"] = w + ds / 20 / xy * (1 - abs(w) * (0.5 + 0.5 * np.sign(ds * w)))
+                if "backlash" in eff:
+                    b = eff["backlash"]["play"]
+                    st["y"] = min(max(st["y"], s[i] - b), s[i] + b)
+            F[i] = p.get("spring_stiffness", 0.0) * s[i] + p["damping"] * v[i] - _suspension_extra(eff, s[i], v[i], st)
+        clean = {"force": F}
+        ins = {"disp": s, "vel": v}
+    else:
+        qc = kind == "quarter_car"
+        ms, k, c = p["sprung_mass"], p["spring_stiffness"], p["damping"]
+        mu, kt, ct = (p["unsprung_mass"], p["tire_stiffness"], p["tire_damping"]) if qc else (0, 0, 0)
+        Fst = (ms + mu) * G
+
+        def u_act(tt):
+            return float(force(tt - delay)) if tt - delay >= 0 else float(force(0.0))
+
+        # state: zs, vs, zu, vu, w (Bouc–Wen), y (backlash), Fa (lag)
+        def rhs(tt, x):
+            zs, vs, zu, vu, w, yb, Fa = x
+            r, rd = float(road(tt)), float(roadd(tt))
+            if qc:
+                s, v = zs - zu, vs - vu
+            else:
+                s, v = zs - r, vs - rd
+            Fact = Fa if tau > 0 else u_act(tt)
+            F = -k * s - c * v + _suspension_extra(eff, s, v, {"w": w, "y": yb}) + Fact
+            dw = 0.0
+            if "hysteresis" in eff:
+                dw = v / eff["hysteresis"]["x_y"] * (1 - abs(w) * (1.0 if v * w > 0 else 0.0))
+            dy = 0.0
+            if "backlash" in eff:
+                b = eff["backlash"]["play"]
+                if (s - yb >= b and v > 0) or (s - yb <= -b and v < 0):
+                    dy = v
+            dFa = (u_act(tt) - Fa) / tau if tau > 0 else 0.0
+            if qc:
+                Ft_tot = Fst - kt * (zu - r) - ct * (vu - rd)
+                if lift:
+                    Ft_tot = max(Ft_tot, 0.0)
+                return [vs, F / ms, vu, (-F + Ft_tot - Fst) / mu, dw, dy, dFa]
+            return [vs, F / ms, 0.0, 0.0, dw, dy, dFa]
+
+        x0 = [0, 0, 0, 0, 0, 0, u_act(0.0)]
+        sol = solve_ivp(rhs, (0, t[-1]), x0, t_eval=t, method="DOP853", rtol=1e-7, atol=1e-10, max_step=5.0 / fs)
+        X = sol.y
+        acc = np.array([rhs(tt, X[:, i]) for i, tt in enumerate(t)])
+        if qc:
+            r, rd = road(t), roadd(t)
+            Ft = -kt * (X[2] - r) - ct * (X[3] - rd)
+            if lift:
+                Ft = np.maximum(Ft + Fst, 0.0) - Fst
+            clean = {"body_acc": acc[:, 1], "wheel_acc": acc[:, 3], "susp_travel": X[0] - X[2], "body_pos": X[0],
+                     "wheel_pos": X[2], "tire_force": Ft}
+            ins = {"road": road(t)}
+        else:
+            clean = {"pos": X[0], "vel": X[1], "acc": acc[:, 1]}
+            ins = {}
+            if road_rms > 0:
+                ins["base"] = road(t)
+        if force_rms > 0:
+            ins["force"] = force(t)
+    outputs = outputs or list(clean)
+    noisy = {kk: clean[kk] + noise * np.std(clean[kk]) * rng.standard_normal(len(t)) for kk in outputs}
+    return {"time": t, **ins, **noisy, "_clean": {kk: clean[kk] for kk in outputs}}

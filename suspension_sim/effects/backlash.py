@@ -1,0 +1,48 @@
+"""Backlash: a spring connected through free play (a play operator)."""
+from __future__ import annotations
+
+import numpy as np
+from pydantic import Field
+
+from ..components import Params
+from ..registry import EFFECTS
+from ._common import PerCornerNonNeg, corner_array
+from .base import Effect
+
+
+class BacklashParams(Params):
+    stiffness: PerCornerNonNeg = Field(5000.0, description="stiffness k_b of the spring behind the play in N/m")
+    play: PerCornerNonNeg = Field(0.002, description="half-width b of the play in m (total free motion 2·b)")
+
+
+@EFFECTS.register("backlash")
+class Backlash(Effect):
+    """A spring ``k_b`` acting on the suspension through free play of ±b (e.g. a worn link or mount).
+
+    Force law: the driven side of the play follows the travel ``s`` with a lag of ``b`` (play operator):
+    ``y ← max(s − b, min(s + b, y))``, starting at ``y = 0``; the force is ``F = −k_b·y`` (positive pushes
+    the body up).  After every reversal of travel the force holds still for ``2·b`` of travel (the play is
+    taken up), then follows with stiffness ``k_b``.  Rate independent; evaluated exactly each step.
+
+    Signature in measured data: the residual force plotted against travel is a parallelogram: flat for 2·b
+    after each reversal, then rising with slope k_b; a dead band of free motion at every reversal (clunks in
+    acceleration when the play closes), most visible on small inputs.
+    """
+
+    Params = BacklashParams
+    target = "suspension"
+    signature = ("residual force vs travel is a parallelogram: flat for 2·b after each reversal, then slope k_b; "
+                 "dead band (free motion) at reversals")
+
+    def reset(self):
+        self.k = corner_array(self, "stiffness")
+        self.b = corner_array(self, "play")
+        self.y = np.zeros_like(self.k)
+
+    def force(self, s, v, t, dt):
+        self.y = np.maximum(s - self.b, np.minimum(s + self.b, self.y))
+        return -self.k * self.y
+
+    def signals(self):
+        """``y``: position of the driven side of the play (m)."""
+        return {"y": self.y}
