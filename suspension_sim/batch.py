@@ -543,13 +543,18 @@ class DaskEngine:
             from dask.distributed import Client, LocalCluster
         except ImportError:  # pragma: no cover
             raise ScenarioError("the Dask engine needs dask[distributed]: pip install 'suspension-sim[batch]'") from None
+        import logging
+
+        for name in ("distributed", "distributed.scheduler", "distributed.nanny", "distributed.core",
+                     "distributed.worker", "distributed.http.proxy"):
+            logging.getLogger(name).setLevel(logging.WARNING)
         self.cluster = None
         if scheduler:
             self.client = Client(scheduler)
             self.label = f"dask {scheduler}"
         else:
             n = max(1, n_local or 1)
-            self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+            self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
                                         silence_logs=40)
             self.client = Client(self.cluster)
             self.label = f"dask local cluster ({n} workers)"

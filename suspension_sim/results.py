@@ -101,10 +101,14 @@ class Logger:
             self._corner("wheel_acc", j, qacc[P.wheel_v])
 
     def frame(self, i: int) -> pd.DataFrame:
-        cols = {"t": self.t}
-        for name, arr in self.ch.items():
-            cols[name] = arr[i]
-        return pd.DataFrame(cols)
+        arrs = [self.t] + [arr[i] for arr in self.ch.values()]
+        if all(a.dtype == np.float64 for a in arrs):
+            # one float block: ~3x cheaper than a dict of columns (matters for batches of short runs)
+            block = np.empty((len(self.t), len(arrs)))
+            for k, a in enumerate(arrs):
+                block[:, k] = a
+            return pd.DataFrame(block, columns=["t", *self.ch], copy=False)
+        return pd.DataFrame(dict(zip(["t", *self.ch], arrs)))
 
 
 @dataclass

@@ -427,11 +427,14 @@ class Simulation:
         q, v = d.qpos[P.free_q], d.qvel[P.free_v]
         lim_x = self.scenarios[0].sim.max_displacement
         lim_v = self.scenarios[0].sim.max_velocity
-        if np.abs(q).max() <= lim_x and np.abs(v).max() <= lim_v and not _mj_bad_values(d):
+        ws = getattr(self, "_warn_stats", None)
+        if ws is None or ws[0] is not d:  # MuJoCo's warning counters (live views, cheap to read)
+            ws = self._warn_stats = (d, [(name, d.warning[w]) for name, w in _BAD])
+        if np.abs(q).max() <= lim_x and np.abs(v).max() <= lim_v and not _mj_bad_values(d, ws[1]):
             return  # the common case, cheaply (NaN fails the comparisons)
-        if _mj_bad_values(d):
+        if _mj_bad_values(d, ws[1]):
             # MuJoCo replaced a NaN/Inf (in ctrl, qpos, qvel or qacc) and went on: report it, never hide it
-            what = _mj_bad_values(d)
+            what = _mj_bad_values(d, ws[1])
             car = _car_of_ctrl(P, d.warning[mujoco.mjtWarning.mjWARN_BADCTRL].lastinfo) if what == "ctrl" else None
             forces = getattr(self, "_last_forces", ())
             if what == "ctrl" and any(not np.all(np.isfinite(f)) for f in forces):
@@ -471,10 +474,10 @@ _BAD = (("ctrl", mujoco.mjtWarning.mjWARN_BADCTRL), ("qacc", mujoco.mjtWarning.m
         ("qvel", mujoco.mjtWarning.mjWARN_BADQVEL), ("qpos", mujoco.mjtWarning.mjWARN_BADQPOS))
 
 
-def _mj_bad_values(d) -> str:
+def _mj_bad_values(d, stats=None) -> str:
     """Name of the first array in which MuJoCo met a NaN/Inf since the reset ('' if none)."""
-    for name, w in _BAD:
-        if d.warning[w].number:
+    for name, w in stats or [(name, d.warning[w]) for name, w in _BAD]:
+        if w.number:
             return name
     return ""
 

@@ -1,0 +1,279 @@
+"""Closed-loop speed, printed side by side from one run on this machine (issue 7).
+
+1. A single closed-loop run — quarter car with two nonlinear effects (quadratic damping, bump stops), the
+   thesis's continuous direct MRAC (controllers/thesis_mrac_continuous.py, Ch. 3, used here as an SDOF
+   design on the quarter car's body), ideal actuator, 0.5 ms physics, 1 ms control, 10 s of a 1.2 Hz
+   road sine that drives the travel into the stops — against a plain scipy ``solve_ivp`` implementation
+   of the same closed loop written below (the same 4-state plant equations, the same force laws, the same
+   controller object called at the same 1 ms instants with zero-order hold).  Both are checked against a
+   tight-tolerance reference (DOP853, rtol 1e-10) by NRMSE = rms(error) / rms(reference) of body
+   position, travel and actuator force (≤ 1 % required).  Speed ratio = scipy time / suspension_sim time.
+2. Batch cost per car-step (an ensemble of cars in one MuJoCo model, same closed loop) against raw
+   ``mujoco.mj_step`` with ``nstep`` (a C loop, no Python) on (a) models/quarter_car.xml alone and (b) the
+   very same ensemble model.
+3. Real-time factors (simulated seconds per CPU second of one core), single and batch, for the stepping
+   loop and end to end (model build + loop + metrics).
+4. Dask distributed, 1 and 2 local workers, the same sweep: the scaling ratio t(1) / t(2).
+
+Times are CPU seconds of this process (``time.process_time``) where one process does the work, because
+the machine is shared (other jobs inflate wall time); Dask scaling is wall time by nature.  The load
+average is printed alongside.
+
+Run:  python benchmarks/bench_speed.py [--quick]
+"""
+from __future__ import annotations
+
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+QUICK = "--quick" in sys.argv
+DURATION = 10.0
+EFFECTS = [{"type": "quadratic_damping", "params": {"c_v": 300.0}},
+           {"type": "bump_stop", "params": {"gap": 0.03, "stiffness": 40000.0}}]
+CTRL = {"type": "thesis_mrac_continuous",
+        "params": {"mass": 290.0, "stiffness": 16812.0, "damping": 1000.0, "ref_mass": 290.0,
+                   "ref_stiffness": 16812.0, "ref_damping": 6000.0}}
+ROAD_A, ROAD_F = 0.03, 1.2
+
+
+def scenario_raw(duration=DURATION, amplitude=ROAD_A, frequency=ROAD_F, seed=0):
+    return {
+        "name": "bench",
+        "vehicle": {"model": "quarter_car", "effects": EFFECTS},
+        "road": {"type": "sine", "params": {"amplitude": amplitude, "frequency": frequency}, "speed": 20.0},
+        "sensors": [{"type": s} for s in ("body_pos", "body_vel", "road", "road_vel")],
+        "actuator": {"type": "ideal"},
+        "controller": CTRL,
+        "sim": {"duration": duration, "dt": 0.0005, "control_dt": 0.001, "log_dt": 0.001, "seed": seed},
+        "outputs": {"timeseries": True, "plots": False},
+    }
+
+
+# ------------------------------------------------------------------------------------------------------
+# the same closed loop in plain scipy
+# ------------------------------------------------------------------------------------------------------
+def scipy_closed_loop(controller, duration, control_dt, rtol, atol, method="RK45"):
+    """Quarter car (positions from equilibrium), quadratic damping + bump stop on the travel, ideal
+    actuator, road z_r = A sin(2π f t); the controller is called every control_dt, its force held."""
+    from scipy.integrate import solve_ivp
+
+    mb, mw, ks, cs, kt = 290.0, 59.0, 16812.0, 1000.0, 190000.0
+    cv, gap, kstop = 300.0, 0.03, 40000.0
+    w = 2 * np.pi * ROAD_F
+
+    def road(t):
+        return ROAD_A * np.sin(w * t), ROAD_A * w * np.cos(w * t)
+
+    def rhs(t, x, F):
+        zb, vb, zw, vw = x
+        s, v = zb - zw, vb - vw
+        f_susp = -ks * s - cs * v - cv * v * abs(v) + F
+        if s < -gap:
+            f_susp += kstop * (-gap - s)
+        elif s > gap:
+            f_susp -= kstop * (s - gap)
+        zr, _ = road(t)
+        return (vb, f_susp / mb, vw, (-f_susp - kt * (zw - zr)) / mw)
+
+    n = int(round(duration / control_dt))
+    x = np.zeros(4)
+    out = np.empty((n, 3))  # body_z, travel, actuator force at the control instants
+    controller.reset()
+    for k in range(n):
+        t = k * control_dt
+        zr, vr = road(t)
+        y = {"body_pos": np.array([[x[0]]]), "body_vel": np.array([[x[1]]]), "road": np.array([[zr]]),
+             "road_vel": np.array([[vr]])}
+        F = float(np.asarray(controller.step(t, y)).reshape(-1)[0])
+        out[k] = x[0], x[0] - x[2], F
+        sol = solve_ivp(rhs, (t, t + control_dt), x, method=method, rtol=rtol, atol=atol, args=(F,))
+        x = sol.y[:, -1]
+    return out
+
+
+def nrmse(a, ref):
+    return float(np.sqrt(np.mean((a - ref) ** 2)) / np.sqrt(np.mean(ref ** 2)))
+
+
+def load_avg():
+    try:
+        return os.getloadavg()[0]
+    except OSError:  # pragma: no cover
+        return float("nan")
+
+
+# ------------------------------------------------------------------------------------------------------
+def part1_single():
+    import mujoco  # noqa: F401
+
+    from suspension_sim.config import parse_scenario
+    from suspension_sim.simulation import Simulation
+
+    sc = parse_scenario(scenario_raw())
+    Simulation([parse_scenario(scenario_raw(duration=0.05))]).run()  # warm caches/imports
+    c0 = time.process_time()
+    sim = Simulation([sc])
+    c1 = time.process_time()
+    res = sim.run()[0]
+    c2 = time.process_time()
+    ts = res.ts
+    ours = np.column_stack([ts["body_z"].to_numpy(), ts["travel"].to_numpy(), ts["actuator_force"].to_numpy()])
+    ctrl_cls, ctrl_p, cctx = type(sim.controller), sim.controller.p, sim.cctx
+
+    def fresh():
+        return ctrl_cls(ctrl_p, cctx)
+
+    c3 = time.process_time()
+    plain = scipy_closed_loop(fresh(), DURATION, 0.001, rtol=1e-6, atol=1e-9)
+    c4 = time.process_time()
+    ref = scipy_closed_loop(fresh(), DURATION, 0.001, rtol=1e-10, atol=1e-13, method="DOP853")
+    n = min(len(ours), len(ref))
+    err_ours = [nrmse(ours[:n, j], ref[:n, j]) for j in range(3)]
+    err_plain = [nrmse(plain[:n, j], ref[:n, j]) for j in range(3)]
+    t_ours, t_build, t_plain = c2 - c1, c1 - c0, c4 - c3
+    stops = float(np.mean(np.abs(ref[:, 1]) > 0.03))
+    return dict(t_ours=t_ours, t_build=t_build, t_plain=t_plain, err_ours=err_ours, err_plain=err_plain,
+                stops=stops, rtf_single=DURATION / t_ours, rtf_single_e2e=DURATION / (t_ours + t_build),
+                metrics=res.metrics)
+
+
+def part2_batch(n_cars=256, duration=2.0):
+    import mujoco
+
+    from suspension_sim.config import parse_scenario
+    from suspension_sim.simulation import Simulation
+    from suspension_sim.vehicles.base import models_dir
+
+    rng = np.random.default_rng(0)
+    scs = [parse_scenario(scenario_raw(duration=duration, amplitude=float(a), frequency=float(f)))
+           for a, f in zip(rng.uniform(0.01, 0.03, n_cars), rng.uniform(0.8, 2.0, n_cars))]
+    import suspension_sim.results as R
+
+    t_metrics = [0.0]
+    orig = R.compute_metrics
+
+    def timed(r):
+        c = time.process_time()
+        out = orig(r)
+        t_metrics[0] += time.process_time() - c
+        return out
+
+    R.compute_metrics = timed
+    try:
+        c0 = time.process_time()
+        sim = Simulation(scs)
+        c1 = time.process_time()
+        t_res = [0.0]
+        orig_from = R.Result.from_logger
+
+        def timed_from(*a, **k):
+            c = time.process_time()
+            out = orig_from(*a, **k)
+            t_res[0] += time.process_time() - c
+            return out
+
+        R.Result.from_logger = timed_from
+        res = sim.run()
+        c2 = time.process_time()
+    finally:
+        R.compute_metrics = orig
+        R.Result.from_logger = orig_from
+    assert all(np.isfinite(r.metrics["body_acc_rms"]) for r in res)
+    n_steps = sim.n_steps
+    t_loop = (c2 - c1) - t_res[0]
+    per_car_step = t_loop / (n_cars * n_steps)
+    # raw MuJoCo, no Python in the loop
+    m1 = mujoco.MjModel.from_xml_path(str(models_dir() / "quarter_car.xml"))
+    d1 = mujoco.MjData(m1)
+    k = 20000
+    c = time.process_time()
+    mujoco.mj_step(m1, d1, nstep=k)
+    raw_single = (time.process_time() - c) / k
+    me, de = sim.plant.model, mujoco.MjData(sim.plant.model)
+    k2 = 400
+    c = time.process_time()
+    mujoco.mj_step(me, de, nstep=k2)
+    raw_ens = (time.process_time() - c) / (k2 * n_cars)
+    return dict(n_cars=n_cars, duration=duration, t_build=c1 - c0, t_loop=t_loop, t_results=t_res[0],
+                t_metrics=t_metrics[0], per_car_step=per_car_step, raw_single=raw_single, raw_ens=raw_ens,
+                rtf_batch=n_cars * duration / t_loop, rtf_batch_e2e=n_cars * duration / (c2 - c0),
+                rtf_raw_ens=0.0005 / raw_ens, rtf_raw_single=0.0005 / raw_single)
+
+
+SWEEP = """
+name: bench_dask
+base: {base}
+grid:
+  road.params.amplitude: [0.01, 0.015, 0.02, 0.025]
+  road.params.frequency: [0.8, 1.0, 1.2, 1.4, 1.6, 1.8, 2.0, 2.2]
+ensemble_size: {ens}
+"""
+
+
+def part4_dask(duration=4.0, ens=4):
+    import yaml
+
+    from suspension_sim.batch import DaskEngine, run_batch
+
+    tmp = Path(tempfile.mkdtemp(prefix="bench_dask_"))
+    (tmp / "base.yaml").write_text(yaml.safe_dump(scenario_raw(duration=duration)))
+    (tmp / "sweep.yaml").write_text(SWEEP.format(base="base.yaml", ens=ens))
+    out = {}
+    for nw in (1, 2):
+        eng = DaskEngine(None, nw)
+        try:
+            run_batch(tmp / "sweep.yaml", out=tmp / f"warm{nw}", engine=eng, resume=False)  # imports on workers
+            t = time.perf_counter()
+            rep = run_batch(tmp / "sweep.yaml", out=tmp / f"o{nw}", engine=eng, resume=False)
+            out[nw] = time.perf_counter() - t
+            assert rep.counts == {"ok": 32}, rep.counts
+        finally:
+            eng.close()
+    out["ratio"] = out[1] / out[2]
+    out["runs"], out["duration"] = 32, duration
+    return out
+
+
+def main():
+    print(f"machine: {os.cpu_count()} cores, load average {load_avg():.1f} at start; python {sys.version.split()[0]}")
+    p1 = part1_single()
+    print("\n1. single closed-loop run: quarter car, quadratic damping + bump stops, thesis continuous MRAC,")
+    print(f"   dt 0.5 ms, control 1 ms, {DURATION:g} s (travel beyond the stop gap {100 * p1['stops']:.1f} % of the time)")
+    print(f"   {'':28s}{'CPU s':>9s}{'NRMSE body_z':>14s}{'travel':>9s}{'force':>9s}")
+    e = p1["err_ours"]
+    print(f"   {'suspension_sim (MuJoCo)':28s}{p1['t_ours']:9.3f}{100 * e[0]:13.3f}%{100 * e[1]:8.3f}%{100 * e[2]:8.3f}%")
+    e = p1["err_plain"]
+    print(f"   {'scipy solve_ivp RK45 1e-6':28s}{p1['t_plain']:9.3f}{100 * e[0]:13.3f}%{100 * e[1]:8.3f}%{100 * e[2]:8.3f}%")
+    print(f"   speed ratio scipy / suspension_sim: {p1['t_plain'] / p1['t_ours']:.1f}x  (target >= 20x)")
+    print(f"   model build (not in the ratio): {p1['t_build']:.3f} s")
+
+    p2 = part2_batch(n_cars=64 if QUICK else 256)
+    print(f"\n2. batch: {p2['n_cars']} cars in one MuJoCo model, same closed loop, {p2['duration']:g} s each")
+    print(f"   loop cost per car-step             {1e6 * p2['per_car_step']:8.3f} us")
+    print(f"   raw mj_step, quarter_car.xml alone {1e6 * p2['raw_single']:8.3f} us   ratio {p2['per_car_step'] / p2['raw_single']:.2f}x")
+    print(f"   raw mj_step, the same ensemble     {1e6 * p2['raw_ens']:8.3f} us   ratio {p2['per_car_step'] / p2['raw_ens']:.2f}x  (target <= 2x)")
+    print(f"   build {p2['t_build']:.2f} s, loop {p2['t_loop']:.2f} s, results+metrics {p2['t_results']:.2f} s "
+          f"(metrics {p2['t_metrics']:.2f} s)")
+
+    print("\n3. real-time factors (simulated s per CPU s, one core)")
+    print(f"   single run: loop {p1['rtf_single']:8.1f}x   end to end {p1['rtf_single_e2e']:8.1f}x   (target >= 100x)")
+    print(f"   batch:      loop {p2['rtf_batch']:8.1f}x   end to end {p2['rtf_batch_e2e']:8.1f}x   (target >= 1000x)")
+    print(f"   raw MuJoCo: quarter_car.xml alone {p2['rtf_raw_single']:.0f}x, ensemble {p2['rtf_raw_ens']:.0f}x per car")
+
+    if "--no-dask" not in sys.argv:
+        p4 = part4_dask(duration=2.0 if QUICK else 4.0)
+        print(f"\n4. Dask local cluster, {p4['runs']} runs x {p4['duration']:g} s, ensembles of 4 (wall time)")
+        print(f"   1 worker {p4[1]:.2f} s, 2 workers {p4[2]:.2f} s: scaling {p4['ratio']:.2f}x  (target >= 1.8x)")
+    print(f"\nload average at end {load_avg():.1f}")
+
+
+if __name__ == "__main__":
+    main()
