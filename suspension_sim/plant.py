@@ -36,7 +36,8 @@ class CarGeometry:
 
 
 class Plant:
-    def __init__(self, vehicle_cfgs, dt: float, source: str | None = None, spacing: float = 2.5):
+    def __init__(self, vehicle_cfgs, dt: float, source: str | None = None, spacing: float = 2.5,
+                 integrator: str = "implicitfast"):
         models = {v.model for v in vehicle_cfgs}
         if len(models) != 1:
             raise ScenarioError("an ensemble must use one vehicle model", source=source, field="vehicle.model")
@@ -54,6 +55,7 @@ class Plant:
         self.has_tire = all(c.has_tire for c in corners)
 
         self.spacing = spacing
+        self.integrator = integrator
         self.model = self._assemble()
         self.data = mujoco.MjData(self.model)
         self._index()
@@ -68,7 +70,8 @@ class Plant:
         spec.modelname = f"{self.vcls.name}_ensemble" if self.n > 1 else self.vcls.name
         spec.compiler.degree = False
         spec.option.timestep = dt
-        spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+        spec.option.integrator = (mujoco.mjtIntegrator.mjINT_RK4 if self.integrator == "RK4"
+                                  else mujoco.mjtIntegrator.mjINT_IMPLICITFAST)
         spec.option.gravity = [0, 0, -9.81]
         spec.visual.global_.offwidth = 1280
         spec.visual.global_.offheight = 720
@@ -83,6 +86,7 @@ class Plant:
             self._car_xml.append(cache[key])
             child = mujoco.MjSpec.from_string(xml, assets=assets)
             child.modelname = f"car{i}"
+            child.option.integrator = spec.option.integrator
             frame = spec.worldbody.add_frame(pos=[0.0, self.spacing * i, 0.0])
             spec.attach(child, prefix=f"car{i}/", frame=frame)
         self.spec = spec
@@ -150,6 +154,16 @@ class Plant:
             self.static_tire = m.tendon_stiffness[self.tire_t] * m.tendon_lengthspring[self.tire_t, 0]
         else:
             self.static_tire = self.static_susp.copy()
+        if self.integrator == "RK4":
+            # RK4 evaluates forces at intermediate stages: keep the road plates on their kinematic path
+            # within a step (the loop sets their position and velocity at each step start) by making them
+            # so heavy that the tire reaction cannot move them, and switch off their standalone servos.
+            for i in range(n):
+                for c, s in enumerate(sfx):
+                    m.body_mass[m.jnt_bodyid[_idx(m, J, f"car{i}/road_z{s}")]] = 1e12
+            m.actuator_gainprm[self.road_servo.ravel(), :] = 0.0
+            m.actuator_biasprm[self.road_servo.ravel(), :] = 0.0
+            mujoco.mj_setConst(m, mujoco.MjData(m))
         self.free_q = np.setdiff1d(np.arange(m.nq), self.road_q.ravel())
         self.free_v = np.setdiff1d(np.arange(m.nv), self.road_v.ravel())
 

@@ -47,7 +47,7 @@ def structure_key(sc: Scenario) -> tuple:
         sc.controller.type,
         sc.controller.full_state,
         tuple((s.name, s.type) for s in sc.sensors),
-        (sc.sim.duration, sc.sim.dt, sc.sim.control_dt, sc.sim.log_dt),
+        (sc.sim.duration, sc.sim.dt, sc.sim.control_dt, sc.sim.log_dt, sc.sim.integrator),
     )
 
 
@@ -117,7 +117,8 @@ class Simulation:
         self.sub = int(round(self.control_dt / self.dt))
         self.log_every = int(round(self.log_dt / self.dt))
         self.n_steps = int(round(self.duration / self.dt))
-        self.plant = Plant([s.vehicle for s in self.scenarios], self.dt, source)
+        self.plant = Plant([s.vehicle for s in self.scenarios], self.dt, source, integrator=sim.integrator)
+        self.rk4 = sim.integrator == "RK4"
         P = self.plant
         n, nc = P.n, P.nc
         self.geom = P.geometry
@@ -403,7 +404,10 @@ class Simulation:
                 logger.pre(k // self.log_every, t, road, road_vel, travel, rate, command, F_act, F_eff, F_teff, readings)
             need_acc = log_now or (k + 1) % self.sub == 0
             v_before = d.qvel.copy() if need_acc else None
-            mujoco.mj_step2(m, d)
+            if self.rk4:
+                mujoco.mj_step(m, d)  # a full RK4 step (mj_step1 above only served the sensors and forces)
+            else:
+                mujoco.mj_step2(m, d)
             if need_acc:
                 # the acceleration the step applied, (v[k+1] - v[k]) / dt: with implicit damping d.qacc (the
                 # explicit acceleration at the step start) differs from it by O(dt·c/m)
