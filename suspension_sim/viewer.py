@@ -202,17 +202,23 @@ class CarScene:
         span_x = float(self.cx.max() - self.cx.min())
         span_y = float(self.cy.max() - self.cy.min())
         self.body_len = span_x + 1.0 if span_x > 0 else 0.8
-        self.body_w = span_y + 0.1 if span_y > 0 else 0.6
+        # two-track cars: the body is narrower than the track so wheels and springs stay in sight (a schematic)
+        self.body_w = max(0.6, span_y - 0.5) if span_y > 0 else 0.6
         self.body_h = BODY_H if span_x == 0 and span_y == 0 else 1.6 * BODY_H
         self.stop_gap = {s: float((info.get("stop_gap") or {}).get(s) or DEFAULT_GAP) for s in self.sfx}
         self.gap_from_run = bool(info.get("stop_gap"))
         self.static_tire = {s: float((info.get("static_tire_force") or {}).get(s, 0.0)) for s in self.sfx}
         self.static_susp = {s: float((info.get("static_suspension_force") or {}).get(s, 0.0)) for s in self.sfx}
-        # lateral places: spring inboard of each wheel, arrow outboard of the body (camera side = right, y < 0)
+        # lateral places: spring inboard of each wheel; actuator arrow outboard of the body (single track: on the
+        # camera side, y < 0) or, on two-track cars, in line with the spring and 0.22 m towards the car's middle
         self.spring_y = np.where(self.cy > 0, self.cy - (TIRE_W / 2 + 0.09), self.cy + (TIRE_W / 2 + 0.09))
         if span_y == 0:
             self.spring_y = self.cy - (TIRE_W / 2 + 0.09)
-        self.arrow_y = np.where(self.cy > 0, self.body_w / 2 + 0.09, -(self.body_w / 2 + 0.09))
+            self.arrow_y = np.full(nc, -(self.body_w / 2 + 0.09))
+            self.arrow_x = self.cx.copy()
+        else:
+            self.arrow_y = self.spring_y.copy()
+            self.arrow_x = self.cx - np.sign(self.cx - (self.cx.max() + self.cx.min()) / 2) * 0.22
         self.base_z = WHEEL_R if self.has_tire else 0.05  # lower spring seat at equilibrium
         self.spring_len0 = BODY_Z - self.body_h / 2 - self.base_z
         self.moving_road = road is not None
@@ -256,7 +262,7 @@ class CarScene:
             obj(self.p("body", f"arrow_{name}", "head"),
                 g.Cylinder(ARROW_LENGTH * 0.28, radiusTop=0.0, radiusBottom=0.055),
                 lam(color=ARROW_COLOR), _matrix([0, 0, ARROW_LENGTH * 0.86], _quat_xyzw_axis("x", np.pi / 2)))
-            out.append(SetTransform(_matrix([x, self.arrow_y[c], 0.0], None, [1, 1, 1e-4]),
+            out.append(SetTransform(_matrix([self.arrow_x[c], self.arrow_y[c], 0.0], None, [1, 1, 1e-4]),
                                     P(self.p("body", f"arrow_{name}"))))
             # spring
             v, f = _helix_mesh(self.spring_len0)

@@ -156,9 +156,9 @@ def test_full_car_layout_two_tracks_and_html(tmp_path):
     scene, poses = poses_at_log(r)
     assert len(scene.road.track_y) == 2 and scene.road.track_y[0] > 0 > scene.road.track_y[1]
     assert np.max(scene.road.z[0]) == pytest.approx(0.05, abs=1e-3) and np.max(np.abs(scene.road.z[1])) == 0
-    # the springs sit inboard of their wheels, the arrows outboard of the body
+    # the springs sit inboard of their wheels and outboard of the body (in sight), the arrows beside them
     for c, s in enumerate(scene.sfx):
-        assert abs(scene.spring_y[c]) < abs(scene.cy[c]) and abs(scene.arrow_y[c]) > scene.body_w / 2
+        assert scene.body_w / 2 < abs(scene.spring_y[c]) < abs(scene.cy[c]) and abs(scene.arrow_y[c]) > scene.body_w / 2
         assert scene.p(f"wheel_{s.lstrip('_')}") in poses
     p = V.write_viewer(r, tmp_path / "viewer.html")
     assert p.stat().st_size > 500_000
