@@ -339,7 +339,7 @@ class Plan:
 def auto_ensemble_size(n_log: int, budget_bytes: float = 150e6, bytes_per_sample: int = 400) -> int:
     """Cars per ensemble so that one task's logs stay within ``budget_bytes`` (the loop logs every channel
     of every car; a quarter car uses ~300 bytes per logged instant and car, a full car more)."""
-    return int(max(1, min(512, budget_bytes // max(1, n_log * bytes_per_sample))))
+    return int(max(1, min(256, budget_bytes // max(1, n_log * bytes_per_sample))))
 
 
 def plan(path: str | Path, ensemble_size: int | None = None) -> Plan:
