@@ -31,7 +31,7 @@ from suspension_sim.simulation import Simulation, simulate  # noqa: E402
 FLAGS = ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
          "--disable-background-networking", "--disable-component-update", "--disable-sync",
          "--enable-unsafe-swiftshader",  # software WebGL (no GPU here)
-         "--window-size=1000,700", "--hide-scrollbars"]
+         "--window-size=800,560", "--hide-scrollbars"]
 
 
 def _browser_paths():
@@ -74,12 +74,12 @@ def shots(tmp_path_factory) -> Path:
     return d
 
 
-def bump_run(model: str, tmp: Path):
+def bump_run(model: str, tmp: Path, report: bool = False):
     sc = parse_scenario({"name": f"bump_{model}", "vehicle": {"model": model},
                          "road": {"type": "bump", "params": {"height": 0.08, "length": 2.0, "start": 3.0},
                                   "speed": 10},
                          "sim": {"duration": 1.6, "log_dt": 0.002},
-                         "outputs": {"plots": False, "viewer": True, "report": True}})
+                         "outputs": {"plots": False, "viewer": True, "report": report}})
     r = simulate(sc)
     d = write_result(r, tmp / model, plots=False)
     return r, d
@@ -87,10 +87,10 @@ def bump_run(model: str, tmp: Path):
 
 @pytest.fixture(scope="module")
 def quarter_run(tmp_path_factory):
-    return bump_run("quarter_car", tmp_path_factory.mktemp("quarter_car"))
+    return bump_run("quarter_car", tmp_path_factory.mktemp("quarter_car"), report=True)
 
 
-@pytest.fixture(scope="module", params=["quarter_car", "half_car"])
+@pytest.fixture(scope="module", params=["quarter_car", "half_car", "full_car"])
 def run(request, tmp_path_factory):
     if request.param == "quarter_car":
         return request.getfixturevalue("quarter_run")
