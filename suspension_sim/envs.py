@@ -156,7 +156,7 @@ class SuspensionPhysics(_engine.Physics):
         sim = self.sim
         P, m, d = sim.plant, sim.plant.model, sim.plant.data
         k = sim.n_steps
-        z, zd = sim._road_chunk(k, k + 1)
+        z, zd = sim._road_chunk(k, k + 1)[:2]
         road, road_vel = z[:, 0, :], zd[:, 0, :]
         acc, F_act, F_teff = sim.end_forces  # the last physics step's, as the loop would hold them
         d.qpos[P.road_q] = road

@@ -154,13 +154,14 @@ class Plant:
             self.static_tire = m.tendon_stiffness[self.tire_t] * m.tendon_lengthspring[self.tire_t, 0]
         else:
             self.static_tire = self.static_susp.copy()
+        self.road_mass = 1e12
         if self.integrator == "RK4":
             # RK4 evaluates forces at intermediate stages: keep the road plates on their kinematic path
             # within a step (the loop sets their position and velocity at each step start) by making them
             # so heavy that the tire reaction cannot move them, and switch off their standalone servos.
             for i in range(n):
                 for c, s in enumerate(sfx):
-                    m.body_mass[m.jnt_bodyid[_idx(m, J, f"car{i}/road_z{s}")]] = 1e12
+                    m.body_mass[m.jnt_bodyid[_idx(m, J, f"car{i}/road_z{s}")]] = self.road_mass
             m.actuator_gainprm[self.road_servo.ravel(), :] = 0.0
             m.actuator_biasprm[self.road_servo.ravel(), :] = 0.0
             mujoco.mj_setConst(m, mujoco.MjData(m))

@@ -227,6 +227,8 @@ class Simulation:
                 tc = t if self.corner_back[i, c] == 0 else sp.time_at(xc, t)
                 z[i, :, c] = road.height(tc, xc, self.geom.tracks[c])
         zd = (z[:, 2:, :] - z[:, :-2, :]) / (2 * self.dt)
+        if self.rk4:  # RK4 also prescribes the plates' acceleration within a step
+            return z[:, 1:-1, :], zd, (z[:, 2:, :] - 2 * z[:, 1:-1, :] + z[:, :-2, :]) / self.dt ** 2
         return z[:, 1:-1, :], zd
 
     def _apply_variations(self, t: float):
@@ -365,6 +367,10 @@ class Simulation:
             if self.maneuver is not None:
                 d.qfrc_applied[:] = 0.0
                 self.maneuver.apply(t, d)
+            if self.rk4:
+                # the plates are 1e12 kg (plant.py): this force gives them the road's acceleration, so within
+                # the RK4 stages they follow the road to O(dt^3) and dampers to the road see its velocity
+                d.qfrc_applied[P.road_v] = P.road_mass * road_chunk[2][:, j, :]
             mujoco.mj_step1(m, d)
             if control_now:
                 self._last_forces = (F_act, F_eff, F_teff)
@@ -403,12 +409,17 @@ class Simulation:
             if log_now:
                 logger.pre(k // self.log_every, t, road, road_vel, travel, rate, command, F_act, F_eff, F_teff, readings)
             need_acc = log_now or (k + 1) % self.sub == 0
-            v_before = d.qvel.copy() if need_acc else None
+            v_before = d.qvel.copy() if (need_acc and not self.rk4) else None
             if self.rk4:
+                if need_acc:
+                    # RK4: the acceleration at the step start, with this step's forces (exact at t_k; the
+                    # velocity difference would be the step's mean acceleration, half a step late)
+                    mujoco.mj_forwardSkip(m, d, mujoco.mjtStage.mjSTAGE_VEL, 1)
+                    acc = d.qacc.copy()
                 mujoco.mj_step(m, d)  # a full RK4 step (mj_step1 above only served the sensors and forces)
             else:
                 mujoco.mj_step2(m, d)
-            if need_acc:
+            if need_acc and not self.rk4:
                 # the acceleration the step applied, (v[k+1] - v[k]) / dt: with implicit damping d.qacc (the
                 # explicit acceleration at the step start) differs from it by O(dt·c/m)
                 acc = (d.qvel - v_before) / self.dt
