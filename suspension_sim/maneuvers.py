@@ -25,7 +25,8 @@ MANEUVERS: Registry = Registry("manoeuvre")
 
 
 class ManeuverParams(Params):
-    cg_height: float = Field(0.5, gt=0, description="c.g. height above the pitch/roll axis, m")
+    cg_height: float | None = Field(None, gt=0, description="c.g. height above the pitch/roll axis, m; "
+                                    "default: the vehicle's cg_height")
     sprung_mass: float | None = Field(None, gt=0, description="kg; default: the vehicle's sprung_mass")
 
 
@@ -137,7 +138,11 @@ def build_maneuver(scenarios, plant, source=None) -> AppliedManeuver:
             raise ScenarioError("give maneuver.params.sprung_mass (the model has no sprung_mass)", source=source,
                                 field="vehicle.maneuver.params.sprung_mass")
         masses.append(m)
-        heights.append(p.cg_height)
+        h = p.cg_height if p.cg_height is not None else getattr(vp, "cg_height", None)
+        if h is None:
+            raise ScenarioError("give maneuver.params.cg_height (the model has no cg_height)", source=source,
+                                field="vehicle.maneuver.params.cg_height")
+        heights.append(h)
     joints = plant.body_joints
     ax, ay = mans[0].accel(np.linspace(0, scenarios[0].sim.duration, 2001))
     if np.any(ax != 0) and "pitch" not in joints:
