@@ -126,6 +126,17 @@ def _fmt(v) -> str:
     return f"{v:.4g}"
 
 
+def _rel(v, ref) -> str:
+    """Change against the reference (first) run, in percent."""
+    try:
+        v, ref = float(v), float(ref)
+    except (TypeError, ValueError):
+        return ""
+    if not (math.isfinite(v) and math.isfinite(ref)) or ref == 0:
+        return ""
+    return f" <span class='rel'>({100 * (v - ref) / abs(ref):+.0f}%)</span>"
+
+
 def _metric_order(names) -> list[str]:
     names = list(dict.fromkeys(names))
     key = [n for n in names if any(n.startswith(k) for k in KEY_METRICS)]
@@ -139,7 +150,7 @@ def metrics_table(results: Mapping[str, object]) -> str:
     rows = []
     for n in names:
         vals = [r.metrics.get(n) for r in results.values()]
-        cells = "".join(f"<td>{_fmt(v)}</td>" for v in vals)
+        cells = "".join(f"<td>{_fmt(v)}{_rel(v, vals[0]) if k else ''}</td>" for k, v in enumerate(vals))
         rows.append(f"<tr><td class='m'>{html.escape(n)}</td>{cells}</tr>")
     return f"<table class='metrics'><tr><th>metric</th>{head}</tr>{''.join(rows)}</table>"
 
@@ -169,6 +180,7 @@ td.m, th:first-child { text-align: left; font-family: monospace; }
 .plots img { max-width: 100%; display: block; margin: 6px 0; }
 iframe.viewer { width: 100%; height: 560px; border: 1px solid #bbb; }
 .note { color: #666; font-size: 12px; }
+.rel { color: #777; font-size: 11px; }
 """
 
 
@@ -179,7 +191,7 @@ def _page(title: str, body: str) -> str:
 
 def _viewer_block(rel: str | None, note: str = "") -> str:
     if not rel:
-        return "<p class='note'>no 3D view (the run has no time series)</p>"
+        return "<p class='note'>no 3D view</p>"
     return (f"<h2>3D view</h2><p class='note'>Recorded animation: play, pause, scrub, change the camera. "
             f"<a href='{html.escape(rel)}'>open it full-window</a>. {note}</p>"
             f"<iframe class='viewer' id='viewer' src='{html.escape(rel)}'></iframe>")
@@ -251,7 +263,8 @@ def write_compare(run_dirs: Sequence, out_dir, labels: Sequence[str] | None = No
             if len(models) > 1 else "")
     body = (f"<h1>comparison of {len(results)} runs</h1>{warn}<ul>{links}</ul>"
             + _viewer_block(vrel, note)
-            + f"<h2>metrics</h2>{metrics_table(results)}"
+            + f"<h2>metrics</h2><p class='note'>in brackets: change against the first run, "
+              f"{html.escape(next(iter(results)))}</p>{metrics_table(results)}"
             + f"<h2>overlaid time series</h2><div class='plots'>{plots}</div>")
     out = out_dir / "report.html"
     out.write_text(_page("comparison report", body), encoding="utf-8")
