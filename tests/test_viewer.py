@@ -246,6 +246,8 @@ def test_write_result_outputs_and_commands(tmp_path):
     assert res.exit_code == 0, res.output
     rep = (tmp_path / "cmp" / "report.html").read_text()
     assert "passive" in rep and "skyhook" in rep and (tmp_path / "cmp" / "viewer.html").exists()
+    m = [json.loads((d / "summary.json").read_text())["metrics"]["body_acc_rms"] for d in runs]
+    assert f"({100 * (m[1] - m[0]) / m[0]:+.0f}%)" in rep  # change against the first run
     (runs[0] / "viewer.html").unlink()
     res = CliRunner().invoke(app, ["view", str(runs[0]), "--write-only"])
     assert res.exit_code == 0, res.output
