@@ -13,6 +13,7 @@ A :class:`Result` holds one car's time series (a pandas DataFrame, SI units) and
 """
 from __future__ import annotations
 
+import functools
 import json
 import platform
 from dataclasses import dataclass, field
@@ -196,6 +197,11 @@ def compute_metrics(result: Result) -> dict:
 
 
 def versions() -> dict:
+    return dict(_versions())
+
+
+@functools.lru_cache(maxsize=None)
+def _versions() -> dict:  # importlib.metadata is slow: once per process, not once per car
     import mujoco
 
     from . import __version__

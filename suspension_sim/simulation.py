@@ -553,13 +553,24 @@ class _PerCarRNG:
     """Noise generator of an ensemble: each car draws from its own stream (seeded by its scenario's
     ``sim.seed``), so a car's noise, and hence its result, is the same alone and inside any ensemble."""
 
+    BLOCK = 256  # standard normals drawn ahead per car (the same stream as one draw per call, far cheaper)
+
     def __init__(self, rngs):
         self.rngs = rngs
+        self._buf: dict = {}
 
     def normal(self, loc=0.0, scale=1.0, size=None):
-        if size is None or len(self.rngs) == 1:
-            return self.rngs[0].normal(loc, scale, size)
-        return np.stack([g.normal(loc, scale, size[1:]) for g in self.rngs])
+        n = len(self.rngs)
+        if size is None or np.ndim(loc) or np.ndim(scale) or len(tuple(size)) < 1 or tuple(size)[0] != n:
+            if size is None or n == 1:
+                return self.rngs[0].normal(loc, scale, size)
+            return np.stack([g.normal(loc, scale, tuple(size)[1:]) for g in self.rngs])
+        key = tuple(size)[1:]
+        buf, pos = self._buf.get(key, (None, self.BLOCK))
+        if pos == self.BLOCK:
+            buf, pos = np.stack([g.standard_normal((self.BLOCK,) + key) for g in self.rngs]), 0
+        self._buf[key] = (buf, pos + 1)
+        return loc + scale * buf[:, pos]  # = Generator.normal(loc, scale) value by value
 
     def __getattr__(self, name):  # other draws: the first car's stream (single runs unchanged)
         return getattr(self.rngs[0], name)
