@@ -53,6 +53,8 @@ def run(
     set_: Optional[List[str]] = typer.Option(None, "--set", "-s", help="override: path.to.key=value (repeatable)"),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress bar"),
     view: bool = typer.Option(False, "--view", help="stream the run to a meshcat viewer in the browser"),
+    view_rate: Optional[float] = typer.Option(None, "--view-rate", min=0.0,
+                                              help="with --view: simulated seconds per wall second (1 = real time, 0 = as fast as it runs)"),
 ):
     """Simulate a scenario (all its variants) and write time series, metrics, plots."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
@@ -74,7 +76,7 @@ def run(
                 if view:
                     from .viewer import attach_live_viewer  # provided by the viewer module
 
-                    attach_live_viewer(sim, console=console)
+                    attach_live_viewer(sim, console=console, **({"rate": view_rate} if view_rate is not None else {}))
                 res = sim.run(progress=lambda f, t=task: prog.update(t, completed=f))[0]
                 results[vname] = res
         multi = len(variants) > 1 or bool(sc.variants)
