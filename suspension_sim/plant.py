@@ -7,6 +7,8 @@ contacts; every force element is a tendon within one car).
 """
 from __future__ import annotations
 
+import contextlib
+import warnings
 from dataclasses import dataclass
 
 import mujoco
@@ -16,6 +18,21 @@ from dm_control import mjcf
 from .components import validate_params
 from .errors import ScenarioError
 from .registry import VEHICLES
+
+
+@contextlib.contextmanager
+def _quiet():
+    """Silence MuJoCo's attach warning about an empty prefix (Python warning and absl log line)."""
+    from absl import logging as absl_logging
+
+    level = absl_logging.get_verbosity()
+    absl_logging.set_verbosity(absl_logging.ERROR)
+    try:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message="Attaching a spec with an empty prefix")
+            yield
+    finally:
+        absl_logging.set_verbosity(level)
 
 
 def _idx(m, kind, name):
@@ -77,6 +94,7 @@ class Plant:
         spec.visual.global_.offheight = 720
         cache: dict[str, tuple] = {}
         self._car_xml = []
+        group, sub = 16, None  # attach cost grows with the parent's size: cars go in groups of 16 first
         for i, p in enumerate(self.params):
             key = p.model_dump_json()
             if key not in cache:
@@ -87,10 +105,24 @@ class Plant:
             child = mujoco.MjSpec.from_string(xml, assets=assets)
             child.modelname = f"car{i}"
             child.option.integrator = spec.option.integrator
-            frame = spec.worldbody.add_frame(pos=[0.0, self.spacing * i, 0.0])
-            spec.attach(child, prefix=f"car{i}/", frame=frame)
+            if self.n <= group:
+                frame = spec.worldbody.add_frame(pos=[0.0, self.spacing * i, 0.0])
+                spec.attach(child, prefix=f"car{i}/", frame=frame)
+                continue
+            if i % group == 0:
+                sub = mujoco.MjSpec()
+                sub.modelname = f"cars{i}"
+                sub.compiler.degree = False
+                sub.option.timestep, sub.option.integrator = dt, spec.option.integrator
+                sub.option.gravity = [0, 0, -9.81]
+            frame = sub.worldbody.add_frame(pos=[0.0, self.spacing * i, 0.0])
+            sub.attach(child, prefix=f"car{i}/", frame=frame)
+            if i % group == group - 1 or i == self.n - 1:
+                with _quiet():  # names are already unique (car{i}/); MuJoCo warns about the empty prefix
+                    spec.attach(sub, prefix="", frame=spec.worldbody.add_frame())
         self.spec = spec
-        return spec.compile()
+        with _quiet():
+            return spec.compile()
 
     @property
     def car_roots(self) -> list:
