@@ -142,7 +142,7 @@ class BumpStop(Candidate):
 
     def starts(self, sc):
         k = 2 * max(sc.k, sc.F / max(sc.s, 1e-12))
-        return [[f * sc.s_max, k] for f in (0.4, 0.6, 0.8)]
+        return [[f * sc.s_max, k] for f in (0.5, 0.8)]
 
     def describe(self, P):
         return {"effect": {"type": "bump_stop", "params": {"gap": P[fs.GAP], "stiffness": P[fs.KSTOP]}}}
@@ -249,7 +249,7 @@ class Hysteresis(Candidate):
                 FreeParam("hysteresis.x_y", fs.BWX, 0.2 * sc.s, 1e-3 * sc.s, np.inf, sc.s)]
 
     def starts(self, sc):
-        return [[0.05 * sc.F, 0.1 * sc.s], [0.05 * sc.F, 0.5 * sc.s]]
+        return [[0.05 * sc.F, 0.2 * sc.s]]
 
     def describe(self, P):
         return {"effect": {"type": "hysteresis", "params": {"force": P[fs.BWF], "x_y": P[fs.BWX]}}}
@@ -272,7 +272,7 @@ class Backlash(Candidate):
 
     def starts(self, sc):
         kb = max(sc.k, sc.F / max(sc.s, 1e-12))
-        return [[0.2 * kb, 0.1 * sc.s], [0.2 * kb, 0.4 * sc.s]]
+        return [[0.2 * kb, 0.2 * sc.s]]
 
     def describe(self, P):
         return {"effect": {"type": "backlash", "params": {"stiffness": P[fs.BLK], "play": P[fs.BLB]}}}

@@ -5,10 +5,12 @@
    from several starts), and score it on the training data by BIC (N·ln(cost) + p·ln N; AIC is reported too).
 3. A candidate is *kept* only if, on the held-out data, it lowers the error beyond the noise:
    (a) its BIC is below the current model's, (b) the drop of the squared error on held-out data is
-   significant (z > 3 over 20 contiguous blocks, so that correlated residuals are not counted as
-   independent), and (c) it removes at least ``min_excess_drop`` (default 10 %) of the held-out error that
+   significant (z > 2 over 20 contiguous blocks, so that correlated residuals are not counted as
+   independent), (c) it removes at least ``min_excess_drop`` (default 10 %) of the held-out error that
    lies *above the noise floor* (``sqrt(NRMSE² − floor²)``; the floor is the sensor noise estimated from the
-   data, or a repeatability floor given by the user).
+   data, or a repeatability floor given by the user), and (d) the held-out NRMSE falls by at least
+   ``min_rel_drop`` (default 5 %), so that a model already near the floor is not decorated with
+   effects that only polish the last digits.
 4. Of the kept candidates the one with the lowest BIC is added; repeat from 2 (so two or more effects can
    be found); stop when no candidate is kept.  When none is kept at the first round, nothing is named.
 
@@ -158,7 +160,10 @@ def init_sdof(rec: Record, spec: ModelSpec) -> None:
     x = rec.outputs["pos"]
     base = rec.inputs.get("base", np.zeros_like(x))
     v = np.gradient(x, dt)
-    acc = np.gradient(v, dt)
+    # three-point second difference: less high-frequency bias than differentiating twice with 2·dt spacing
+    acc = np.empty_like(x)
+    acc[1:-1] = (x[2:] - 2 * x[1:-1] + x[:-2]) / dt ** 2
+    acc[0], acc[-1] = acc[1], acc[-2]
     s = x - base
     sd = np.gradient(s, dt)
     u = rec.inputs["force"]
@@ -185,7 +190,8 @@ def init_sdof(rec: Record, spec: ModelSpec) -> None:
 class Selector:
     def __init__(self, rec: Record, spec: ModelSpec, split: float = 0.7, test_record: Record | None = None,
                  floors: dict | None = None, candidates: list[str] | None = None, max_effects: int = 3,
-                 screen_samples: int = 20000, min_excess_drop: float = 0.10, z_min: float = 3.0,
+                 screen_samples: int = 20000, min_excess_drop: float = 0.10, z_min: float = 2.0,
+                 min_rel_drop: float = 0.05,
                  test_skip: int | None = None, log=None, workers: int | None = None, max_substep: float = 1e-3):
         import os
 
@@ -216,6 +222,7 @@ class Selector:
         self.max_effects = max_effects
         self.screen = screen_samples
         self.min_excess_drop = min_excess_drop
+        self.min_rel_drop = min_rel_drop
         self.z_min = z_min
         self.log = log or (lambda msg: None)
 
@@ -263,12 +270,14 @@ class Selector:
         a, b = self.train
         self.log(f"calibrating the nominal model ({', '.join(self.spec.names()) or 'nothing free'}) on "
                  f"{b - a} training samples")
-        nominal = fit(self.prob, self.spec, a, b, max_nfev=100)
+        bs = min(b, a + self.screen)
+        nominal = fit(self.prob, self.spec, a, bs, max_nfev=100)
+        if bs < b:  # polish on the whole training part from the screening optimum
+            nominal = fit(self.prob, _with_fit(self.spec, nominal), a, b, max_nfev=30)
         T["calibrate"] = time.perf_counter() - t0
         current_spec = _with_fit(self.spec, nominal)
         current = nominal
         sc = _scales(self.prob, nominal.P, b)
-        bs = min(b, a + self.screen)
         cur_screen = fit(self.prob, current_spec, a, bs, max_nfev=1) if bs < b else current
         lib = library(self.rec.kind)
         if self.cand_filter is not None:
@@ -279,10 +288,14 @@ class Selector:
         for rnd in range(1, self.max_effects + 1):
             best = None
             todo = []
+            prev = {t.name: t for t in trials if t.round == rnd - 1}
             for cand in lib:
                 if any(c.name == cand.name for c, _, _ in added):
                     continue
                 ok, why = cand.applies(self.rec.kind, sc, current_spec)
+                pt = prev.get(cand.name)
+                if ok and pt is not None and pt.applicable and np.isfinite(pt.d_bic) and pt.d_bic >= 0:
+                    ok, why = False, f"pruned: no training improvement in round {rnd - 1} (ΔBIC {pt.d_bic:+.1f})"
                 tr = Trial(cand.name, rnd, ok, why)
                 trials.append(tr)
                 if ok:
@@ -293,7 +306,7 @@ class Selector:
                 t1 = time.perf_counter()
                 spec_c, starts = _augment(current_spec, cand, sc)
                 try:
-                    fr = fit(self.prob, spec_c, a, bs, starts=starts, max_nfev=40)
+                    fr = fit(self.prob, spec_c, a, bs, starts=starts, max_nfev=25)
                 except RuntimeError as err:
                     tr.applicable, tr.reason = False, f"fit failed: {err}"
                     return None
@@ -303,7 +316,8 @@ class Selector:
                 tr.bic, tr.aic = fr.bic(), fr.aic()
                 tr.d_bic = fr.bic() - cur_screen.bic()
                 tr.test_before, tr.test_after, tr.excess_before, tr.excess_after, tr.z = Eb, Ea, xb, xa, z
-                tr.kept = bool(tr.d_bic < 0 and z > self.z_min and xa <= (1 - self.min_excess_drop) * xb)
+                tr.kept = bool(tr.d_bic < 0 and z > self.z_min and xa <= (1 - self.min_excess_drop) * xb
+                               and Ea <= (1 - self.min_rel_drop) * Eb)
                 tr.seconds = time.perf_counter() - t1
                 return cand, spec_c, tr, fr
 
@@ -327,8 +341,10 @@ class Selector:
             if best is None:
                 break
             cand, spec_c, tr, fr = best
+            # polish on the whole training part, so that the next round starts from the optimum
+            fr = fit(self.prob, _with_fit(spec_c, fr), a, bs, max_nfev=100)
             if bs < b:
-                fr = fit(self.prob, _with_fit(spec_c, fr), a, b, max_nfev=60)
+                fr = fit(self.prob, _with_fit(spec_c, fr), a, b, max_nfev=30)
             added.append((cand, fr, tr))
             current_spec = _with_fit(spec_c, fr)
             current = fr

@@ -1,0 +1,264 @@
+"""The discrepancy workflow (suspension_sim.diagnose) on synthetic records from an independent truth
+generator (scipy solve_ivp, own effect implementations: suspension_sim/diagnose/truth.py), plus the data
+reader's bad-data errors and the fast simulator's force laws against the effect classes.
+
+The default suite runs a few representative cases; benchmarks/diagnose_matrix.py runs the whole library."""
+from __future__ import annotations
+
+import json
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+from suspension_sim.diagnose import diagnose
+from suspension_sim.diagnose import fastsim as fs
+from suspension_sim.diagnose import truth
+from suspension_sim.diagnose.io import load_record, parse_map, record_from_arrays
+from suspension_sim.errors import ScenarioError
+
+warnings.filterwarnings("ignore", category=RuntimeWarning)
+
+QC = {"model": "quarter_car", "params": {"sprung_mass": 290, "unsprung_mass": 59, "spring_stiffness": 16812,
+                                         "damping": "free", "tire_stiffness": 190000, "tire_damping": 0}}
+SDOF = {"model": "sdof", "params": {"sprung_mass": 250, "spring_stiffness": 5000, "damping": "free"}}
+
+
+def _record(kind, d, outputs):
+    ins = {k: d[k] for k in ("road", "force", "base", "disp", "vel") if k in d and (kind == "damper" or k != "vel")}
+    return record_from_arrays(kind, d["time"], ins, {k: d[k] for k in outputs})
+
+
+def _shrink(rep):
+    b = np.sqrt(np.mean(np.square(list(rep["nrmse"]["before"]["test"].values()))))
+    a = np.sqrt(np.mean(np.square(list(rep["nrmse"]["after"]["test"].values()))))
+    return 1 - a / b
+
+
+# ------------------------------------------------------------------------------------------------ io
+def _csv(tmp_path, df, name="d.csv"):
+    p = tmp_path / name
+    df.to_csv(p, index=False)
+    return p
+
+
+def _good_df(n=200):
+    t = np.arange(n) / 100.0
+    return pd.DataFrame({"time": t, "road": 0.01 * np.sin(t), "body_acc": np.cos(t)})
+
+
+@pytest.mark.parametrize("mutate,needle", [
+    (lambda df: df.assign(body_acc=df.body_acc.where(df.index != 7)), "missing/NaN value"),
+    (lambda df: df.iloc[[0, 2, 1] + list(range(3, len(df)))], "not sorted"),
+    (lambda df: pd.concat([df.iloc[:5], df.iloc[4:]]), "duplicate time"),
+    (lambda df: df.assign(time=df.time ** 1.1), "non-uniform time"),
+    (lambda df: df.drop(columns="road"), "missing required column(s) road"),
+    (lambda df: df.drop(columns=["body_acc"]), "no output channel"),
+])
+def test_bad_data_one_line_errors(tmp_path, mutate, needle):
+    p = _csv(tmp_path, mutate(_good_df()))
+    with pytest.raises(ScenarioError) as err:
+        load_record(p, "quarter_car")
+    msg = str(err.value)
+    assert needle in msg and "\n" not in msg
+
+
+def test_bad_data_repairs(tmp_path):
+    df = _good_df()
+    bad = pd.concat([df.iloc[:5], df.iloc[4:]]).iloc[[0, 2, 1] + list(range(3, len(df) + 1))]
+    bad.loc[bad.index[10], "body_acc"] = np.nan
+    rec = load_record(_csv(tmp_path, bad), "quarter_car", sort=True, dedupe=True, nan="interp")
+    assert len(rec) == len(df) and np.all(np.diff(rec.t) > 0) and np.isfinite(rec.outputs["body_acc"]).all()
+    assert any("duplicate" in n for n in rec.notes)
+    nonu = df.assign(time=df.time + 0.002 * np.sin(np.arange(len(df))))
+    rec = load_record(_csv(tmp_path, nonu, "n.csv"), "quarter_car", resample=True)
+    assert np.ptp(np.diff(rec.t)) < 1e-12
+
+
+def test_map_scale_unknown_and_mismatched(tmp_path):
+    df = pd.DataFrame({"zr_mm": 10 * np.sin(np.arange(100) / 10), "acc": np.ones(100)})
+    p = _csv(tmp_path, df)
+    rec = load_record(p, "quarter_car", mapping=parse_map(["zr_mm=road*0.001", "acc=body_acc"]), fs=100)
+    assert np.allclose(rec.inputs["road"], df.zr_mm * 1e-3) and rec.dt == pytest.approx(0.01)
+    with pytest.raises(ScenarioError, match="unknown channel name 'bodyacc'"):
+        load_record(p, "quarter_car", mapping=parse_map(["zr_mm=road", "acc=bodyacc"]), fs=100)
+    with pytest.raises(ScenarioError, match="no 'time' column"):
+        load_record(p, "quarter_car", mapping=parse_map(["zr_mm=road", "acc=body_acc"]))
+    q = _csv(tmp_path, df.iloc[:50][["acc"]], "short.csv")
+    with pytest.raises(ScenarioError, match="mismatched lengths"):
+        load_record([p, q], "quarter_car", mapping=parse_map(["zr_mm=road", "acc=body_acc"]), fs=100)
+
+
+def test_mat_and_parquet(tmp_path):
+    from scipy.io import savemat
+
+    t = np.arange(300) / 100.0
+    savemat(tmp_path / "r.mat", {"tt": t[:, None], "u": np.sin(t)[:, None], "y": np.cos(t)[:, None], "gain": 3.0})
+    rec = load_record(tmp_path / "r.mat", "sdof", mapping=parse_map(["tt=time", "u=force*2", "y=pos"]))
+    assert np.allclose(rec.inputs["force"], 2 * np.sin(t)) and rec.fs == pytest.approx(100)
+    pd.DataFrame({"time": t, "force": np.sin(t), "pos": np.cos(t)}).to_parquet(tmp_path / "r.parquet")
+    rec = load_record(tmp_path / "r.parquet", "sdof")
+    assert set(rec.outputs) == {"pos"}
+
+
+# ------------------------------------------------------------------------------------------------ force laws
+def _effect(name, params, n=3):
+    from suspension_sim.components import validate_params
+    from suspension_sim.effects.base import EffectContext
+    from suspension_sim.registry import EFFECTS
+
+    cls = EFFECTS.get(name)
+    z = np.ones((n, 1))
+    ctx = EffectContext(n, ["single"], 1e-3, 2500 * z, 3000 * z, 16812 * z, 1000 * z, 190000 * z, 0 * z)
+    return cls(validate_params(cls.Params, params, "p"), ctx)
+
+
+@pytest.mark.parametrize("name,params,slots", [
+    ("coulomb_friction", {"force": 120.0, "v_eps": 0.004}, {fs.CF: 120.0, fs.VEPS: 0.004}),
+    ("quadratic_damping", {"c_v": 900.0}, {fs.CV: 900.0}),
+    ("asymmetric_damping", {"c_comp": 300.0, "c_reb": 1200.0}, {fs.CCOMP: 300.0, fs.CREB: 1200.0}),
+    ("bump_stop", {"gap": 0.02, "stiffness": 5e4}, {fs.GAP: 0.02, fs.KSTOP: 5e4}),
+    ("cubic_stiffness", {"k3": -2e6}, {fs.K3: -2e6}),
+])
+def test_fast_force_laws_match_effect_classes(name, params, slots):
+    rng = np.random.default_rng(0)
+    s, v = rng.normal(0, 0.03, (3, 1)), rng.normal(0, 0.2, (3, 1))
+    P = fs.default_params()
+    P[fs.K] = P[fs.C] = 0.0
+    for k, val in slots.items():
+        P[k] = val
+    eff = _effect(name, params)
+    ref = eff.force(s, v, 0.0, 1e-3)
+    got = np.array([[fs.susp_force(P, float(a), float(b), 0.0, 0.0)] for a, b in zip(s[:, 0], v[:, 0])])
+    assert np.allclose(got, ref, rtol=1e-12, atol=1e-9)
+
+
+@pytest.mark.parametrize("name,params", [("hysteresis", {"force": 150.0, "x_y": 0.003}),
+                                         ("backlash", {"stiffness": 7000.0, "play": 0.004})])
+def test_stateful_effects_match_fast_kernel_and_formula(name, params):
+    t = np.linspace(0, 2, 2001)
+    s = 0.01 * np.sin(2 * np.pi * 1.3 * t) + 0.004 * np.sin(2 * np.pi * 4.1 * t)
+    eff = _effect(name, params, n=1)
+    F = np.array([eff.force(np.array([[x]]), np.zeros((1, 1)), 0.0, 1e-3)[0, 0] for x in s])
+    w = y = 0.0
+    ref = []
+    for i, x in enumerate(s):
+        if name == "hysteresis":
+            if i:
+                w = fs.bouc_wen_step(w, x - s[i - 1], params["x_y"])
+            ref.append(-params["force"] * w)
+        else:
+            y = fs.play_step(y, x, params["play"])
+            ref.append(-params["stiffness"] * y)
+    assert np.allclose(F, ref, atol=1e-9)
+    if name == "hysteresis":  # saturates at ±F_h, and the loop encloses area (energy loss)
+        assert np.max(np.abs(F)) <= params["force"] + 1e-9 and np.max(np.abs(F)) > 0.9 * params["force"]
+        assert abs(np.trapezoid(F, s)) > 0.1 * params["force"] * 0.01
+    else:  # the force stays flat while the play is taken up after each reversal
+        rev = np.nonzero(np.diff(np.sign(np.diff(s))))[0] + 1
+        k = rev[0]
+        j = k + np.argmax(np.abs(s[k:] - s[k]) > 1.5 * params["play"])
+        assert np.ptp(F[k:k + 5]) < 1e-9 and abs(F[j] - F[k]) > 0
+
+
+def test_fast_simulator_matches_independent_truth():
+    """Linear quarter car: the fast simulator against the scipy truth generator (noise-free)."""
+    d = truth.simulate_truth("quarter_car", 4, 1000, {}, seed=5, road_rms=0.01, noise=0.0,
+                             outputs=["body_acc", "susp_travel", "tire_force"])
+    rec = _record("quarter_car", d, ["body_acc", "susp_travel", "tire_force"])
+    from suspension_sim.diagnose.calibrate import Problem
+    from suspension_sim.diagnose.model import load_model
+
+    spec = load_model({**QC, "params": {**QC["params"], "damping": 1000}})
+    prob = Problem(rec, omega_max=Problem.omega_max(spec))
+    nr = prob.nrmse(prob.simulate(spec.P), 0, len(rec))
+    assert max(nr.values()) < 0.01, nr
+
+
+# ------------------------------------------------------------------------------------------------ workflow
+def test_no_hidden_effect_names_nothing(tmp_path):
+    d = truth.simulate_truth("sdof", 8, 500, {}, seed=11, road_rms=0.0, force_rms=400.0, noise=0.02,
+                             outputs=["pos", "acc"])
+    rep = diagnose(_record("sdof", d, ["pos", "acc"]), SDOF, tmp_path, confirm=False, plots=False)
+    assert rep["effects"] == []
+    assert "nothing is named" in rep["verdict"]
+
+
+def test_coulomb_friction_named_alone_quarter_car(tmp_path):
+    rng = np.random.default_rng(21)
+    Fc = float(rng.uniform(100, 250))
+    d = truth.simulate_truth("quarter_car", 8, 1000, {"coulomb_friction": {"force": Fc}}, seed=21, road_rms=0.01,
+                             noise=float(rng.uniform(0.01, 0.03)), outputs=["body_acc", "susp_travel"])
+    rep = diagnose(_record("quarter_car", d, ["body_acc", "susp_travel"]), QC, tmp_path, confirm=True, plots=True)
+    assert [e["name"] for e in rep["effects"]] == ["coulomb_friction"]
+    assert _shrink(rep) >= 0.8
+    e = rep["effects"][0]
+    assert e["ci95"]["force"][0] < e["parameters"]["force"] < e["ci95"]["force"][1]
+    assert abs(e["parameters"]["force"] - Fc) < 0.15 * Fc
+    # the outputs exist and the fitted model is a loadable vehicle block that MuJoCo reproduces
+    assert (tmp_path / "report.html").exists() and (tmp_path / "plots" / "residual_force_map.png").exists()
+    blk = yaml.safe_load((tmp_path / "model.fitted.yaml").read_text())
+    assert blk["vehicle"]["effects"][0]["type"] == "coulomb_friction"
+    conf = rep["mujoco_confirmation"]
+    assert conf["status"] == "ok"
+    assert max(c["nrmse_mujoco_vs_fast"] for c in conf["channels"].values()) < 0.05
+    assert (tmp_path / "model.fitted.xml").exists()
+    json.loads((tmp_path / "report.json").read_text())
+
+
+def test_cubic_stiffness_named_alone_sdof(tmp_path):
+    rng = np.random.default_rng(31)
+    k3 = float(rng.uniform(2e7, 6e7))
+    d = truth.simulate_truth("sdof", 8, 500, {"cubic_stiffness": {"k3": k3}}, seed=31, road_rms=0.0, force_rms=600.0,
+                             noise=0.02, outputs=["pos"])
+    rep = diagnose(_record("sdof", d, ["pos"]), SDOF, tmp_path, confirm=False, plots=False)
+    assert [e["name"] for e in rep["effects"]] == ["cubic_stiffness"]
+    assert _shrink(rep) >= 0.8
+
+
+def test_asymmetric_damping_named_alone_damper(tmp_path):
+    d = truth.simulate_truth("damper", 6, 1000, {"asymmetric_damping": {"c_comp": 0.0, "c_reb": 900.0}},
+                             params={"damping": 1500.0, "spring_stiffness": 0.0}, seed=41, road_rms=0.03, noise=0.02,
+                             outputs=["force"])
+    model = {"model": "damper", "params": {"spring_stiffness": 0.0, "damping": "free"}}
+    rep = diagnose(_record("damper", d, ["force"]), model, tmp_path, confirm=False, plots=False)
+    assert [e["name"] for e in rep["effects"]] == ["asymmetric_damping"]
+    assert _shrink(rep) >= 0.8
+
+
+def test_two_hidden_effects_both_named(tmp_path):
+    d = truth.simulate_truth("sdof", 8, 500, {"coulomb_friction": {"force": 150.0}, "cubic_stiffness": {"k3": 4e7}},
+                             seed=51, road_rms=0.0, force_rms=600.0, noise=0.02, outputs=["pos", "acc"])
+    rep = diagnose(_record("sdof", d, ["pos", "acc"]), SDOF, tmp_path, confirm=False, plots=False)
+    assert sorted(e["name"] for e in rep["effects"]) == ["coulomb_friction", "cubic_stiffness"]
+    assert _shrink(rep) >= 0.8
+
+
+def test_cli_diagnose_and_bad_data(tmp_path):
+    from typer.testing import CliRunner
+
+    from suspension_sim.cli import app
+
+    d = truth.simulate_truth("damper", 4, 500, {"quadratic_damping": {"c_v": 2000.0}},
+                             params={"damping": 800.0, "spring_stiffness": 0.0}, seed=61, road_rms=0.03, noise=0.01,
+                             outputs=["force"])
+    pd.DataFrame({"t_s": d["time"], "x_mm": 1e3 * d["disp"], "F": d["force"]}).to_csv(tmp_path / "dyno.csv", index=False)
+    (tmp_path / "m.yaml").write_text("model: damper\nparams: {spring_stiffness: 0, damping: free}\n")
+    r = CliRunner().invoke(app, ["diagnose", str(tmp_path / "dyno.csv"), "--model", str(tmp_path / "m.yaml"), "--out",
+                                 str(tmp_path / "out"), "--map", "t_s=time", "--map", "x_mm=disp*0.001",
+                                 "--map", "F=force"])
+    assert r.exit_code == 0, r.output
+    rep = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert {"effects", "nrmse", "noise_floor", "model_after"} <= set(rep)
+    assert set(rep["nrmse"]["before"]) == {"train", "test"} and "force" in rep["nrmse"]["after"]["test"]
+    assert [e["name"] for e in rep["effects"]] == ["quadratic_damping"]
+    assert {"name", "parameters", "ci95", "evidence"} <= set(rep["effects"][0])
+    # a bad file: one line, no traceback
+    df = pd.read_csv(tmp_path / "dyno.csv")
+    df.loc[3, "F"] = np.nan
+    df.to_csv(tmp_path / "bad.csv", index=False)
+    r = CliRunner().invoke(app, ["diagnose", str(tmp_path / "bad.csv"), "--model", str(tmp_path / "m.yaml"), "--out",
+                                 str(tmp_path / "o2"), "--map", "t_s=time", "--map", "x_mm=disp*0.001", "--map", "F=force"])
+    assert r.exit_code == 2 and "missing/NaN" in r.output and "Traceback" not in r.output
