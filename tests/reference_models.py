@@ -16,7 +16,10 @@ test that uses it:
 - ``tire_forces``: ``f(x, xdot, t) -> N``, positive pushes the wheel up (``x`` = wheel − road from
   equilibrium);
 - ``extra_states``: :class:`ExtraState` objects for elements with internal states (hysteresis, actuators):
-  they add ODE states and a force on the suspension.
+  they add ODE states and a force on the suspension;
+- ``coulomb_force``: *exact* dry friction ``F_c`` in the suspension (set-valued at zero travel rate): the
+  integration switches between slipping (``−F_c·sgn(v)``) and sticking (body and wheel move together while
+  the friction force needed for that stays within ``±F_c``), with ``solve_ivp`` events at every switch.
 
 Parameters may be numbers or functions of time (parameter variations).
 
@@ -80,6 +83,7 @@ class QuarterCarRef:
     suspension_forces: list = field(default_factory=list)
     tire_forces: list = field(default_factory=list)
     extra_states: list = field(default_factory=list)
+    coulomb_force: float = 0.0
     g: float = G
 
     def __post_init__(self):
@@ -101,7 +105,7 @@ class QuarterCarRef:
         zs, vs, zu, vu = y[:4]
         s, v = zs - zu, vs - vu
         x, xd = zu - self.road(t), vu - self.road_vel(t)
-        f_susp = self._ks(t) * (self._Ls - s) - self._cs(t) * v
+        f_susp = self._ks(t) * (self._Ls - s) - self._cs(t) * v - self.coulomb_force * self._slip
         for f in self.suspension_forces:
             f_susp += f(s, v, t)
         dy = []
@@ -116,12 +120,77 @@ class QuarterCarRef:
             f_tire += f(x, xd, t)
         return f_susp, f_tire, dy
 
+    _slip = 0.0  # exact Coulomb friction: +1/-1 slipping with v > 0 / v < 0, 0 sticking (or no friction)
+    _stuck = False
+
+    def stick_force(self, t, y):
+        """Friction force that keeps the travel rate at zero (exact Coulomb friction, sticking)."""
+        y = np.array(y, dtype=float)
+        y[3] = y[1]
+        slip, self._slip = self._slip, 0.0
+        f_susp, f_tire, _ = self.forces(t, y)
+        self._slip = slip
+        ms, mu = self._ms(t), self._mu(t)
+        return (f_tire / mu - f_susp * (1 / ms + 1 / mu)) / (1 / ms + 1 / mu)
+
     def rhs(self, t, y):
         zs, vs, zu, vu = y[:4]
         f_susp, f_tire, dy = self.forces(t, y)
+        if self._stuck:  # body and wheel move together: internal forces cancel
+            a = f_tire / (self._ms(t) + self._mu(t)) - self.g
+            return [vs, a, vs, a, *dy]
         a_s = f_susp / self._ms(t) - self.g
         a_u = (f_tire - f_susp) / self._mu(t) - self.g
         return [vs, a_s, vu, a_u, *dy]
+
+    def _segments(self, a, b, y0, **kw):
+        """Integrate [a, b]; with exact Coulomb friction, one solve_ivp call per stick/slip phase."""
+        if self.coulomb_force <= 0:
+            sol = solve_ivp(self.rhs, (a, b), y0, dense_output=True, **kw)
+            if not sol.success:
+                raise RuntimeError(sol.message)
+            return [(a, b, sol.sol)], sol.y[:, -1]
+        Fc = self.coulomb_force
+        out = []
+        t = a
+        y = np.asarray(y0, dtype=float)
+        v = y[1] - y[3]
+        # phase at the start: slip if moving, else stick if the friction can hold
+        stuck = abs(v) < 1e-12 and abs(self.stick_force(t, y)) <= Fc
+        slip = 0.0 if stuck else (float(np.sign(v)) if abs(v) >= 1e-12 else -float(np.sign(self.stick_force(t, y))))
+        while t < b - 1e-12:
+            self._stuck, self._slip = stuck, slip
+            if stuck:
+                y = y.copy()
+                y[3] = y[1]
+
+                def ev(tt, yy):
+                    return Fc - abs(self.stick_force(tt, yy))
+            else:
+                d = slip
+
+                def ev(tt, yy):
+                    return d * (yy[1] - yy[3])
+            ev.terminal, ev.direction = True, -1
+            sol = solve_ivp(self.rhs, (t, b), y, dense_output=True, events=ev, **kw)
+            if not sol.success:
+                raise RuntimeError(sol.message)
+            out.append((t, sol.t[-1], sol.sol, stuck, slip))
+            t, y = sol.t[-1], sol.y[:, -1].copy()
+            if sol.status != 1:
+                break
+            if stuck:  # the friction can no longer hold: slip against the force it would need
+                Fs = self.stick_force(t, y)
+                stuck, slip = False, -float(np.sign(Fs))
+            else:  # the travel rate reached zero: stick if the friction can hold, else reverse
+                y[3] = y[1]
+                Fs = self.stick_force(t, y)
+                if abs(Fs) < Fc:
+                    stuck, slip = True, 0.0
+                else:
+                    slip = -float(np.sign(Fs))
+        self._stuck, self._slip = False, 0.0
+        return out, y
 
     def simulate(self, t_eval, rtol: float = 1e-10, atol: float = 1e-12, max_step: float = np.inf,
                  method: str = "DOP853", breaks: Sequence[float] = ()) -> dict:
@@ -134,23 +203,35 @@ class QuarterCarRef:
         y0 = np.concatenate([np.zeros(4), *[np.asarray(e.y0, dtype=float) for e in self.extra_states]])
         edges = [0.0, *sorted(b for b in breaks if 0.0 < b < t_eval[-1]), float(t_eval[-1])]
         Y = np.zeros((len(y0), len(t_eval)))
+        mode = np.zeros((2, len(t_eval)))  # (stuck, slip direction) for exact Coulomb friction
+        kw = dict(method=method, rtol=rtol, atol=atol, max_step=max_step)
         for a, b in zip(edges[:-1], edges[1:]):
-            sol = solve_ivp(self.rhs, (a, b), y0, method=method, rtol=rtol, atol=atol, max_step=max_step,
-                            dense_output=True)
-            if not sol.success:
-                raise RuntimeError(sol.message)
-            sel = (t_eval >= a) & ((t_eval < b) | (b == edges[-1]))
-            if sel.any():
-                Y[:, sel] = sol.sol(t_eval[sel])
-            y0 = sol.y[:, -1]
+            segs, y0 = self._segments(a, b, y0, **kw)
+            for seg in segs:
+                s0, s1, fn = seg[:3]
+                last = s1 >= edges[-1] - 1e-12
+                sel = (t_eval >= s0) & ((t_eval < s1) | (last & (t_eval <= s1)))
+                if sel.any():
+                    Y[:, sel] = fn(t_eval[sel])
+                    if len(seg) > 3:
+                        mode[:, sel] = np.array(seg[3:], dtype=float)[:, None]
         out = {"t": t_eval, "body_z": Y[0], "body_vel": Y[1], "wheel_z": Y[2], "wheel_vel": Y[3],
                "travel": Y[0] - Y[2], "travel_rate": Y[1] - Y[3]}
-        acc = np.array([self.rhs(t, Y[:, i]) for i, t in enumerate(t_eval)])
+        acc, fs, ft = [], [], []
+        for i, t in enumerate(t_eval):
+            self._stuck, self._slip = bool(mode[0, i]), mode[1, i]
+            acc.append(self.rhs(t, Y[:, i]))
+            f = self.forces(t, Y[:, i])
+            fs.append(f[0] + (self.stick_force(t, Y[:, i]) if self._stuck else 0.0))
+            ft.append(f[1])
+        self._stuck, self._slip = False, 0.0
+        acc = np.array(acc)
         out["body_acc"], out["wheel_acc"] = acc[:, 1], acc[:, 3]
         out["road"] = np.array([self.road(t) for t in t_eval])
-        ft = np.array([self.forces(t, Y[:, i])[1] for i, t in enumerate(t_eval)])
-        out["tire_force"] = ft - self.static_tire_force
-        out["suspension_force"] = np.array([self.forces(t, Y[:, i])[0] for i, t in enumerate(t_eval)])
+        out["tire_force"] = np.array(ft) - self.static_tire_force
+        out["suspension_force"] = np.array(fs)
+        if self.coulomb_force > 0:
+            out["stuck"] = mode[0].astype(bool)
         if self.extra_states:
             out["extra"] = Y[4:]
         return out

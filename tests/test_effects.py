@@ -72,14 +72,14 @@ def road_fn(road_params):
     return lambda t: float(road.height(np.array([t]), np.array([0.0]))[0])
 
 
-def run_sim(effects, road_params, duration, vehicle_params=None, variations=None, cars=None):
+def run_sim(effects, road_params, duration, vehicle_params=None, variations=None, cars=None, dt=5e-4):
     """Simulate the quarter car; ``cars`` = list of per-car effect lists (an ensemble), else one car."""
     def sc(effs):
         return parse_scenario({
             "vehicle": {"model": "quarter_car", "params": vehicle_params or {}, "effects": effs,
                         "variations": variations or []},
             "road": {"type": "sine", "params": road_params},
-            "sim": {"duration": duration, "dt": 5e-4, "control_dt": 1e-3, "log_dt": 1e-3}})
+            "sim": {"duration": duration, "dt": dt, "control_dt": 1e-3, "log_dt": 1e-3}})
     scs = [sc(e) for e in (cars or [effects])]
     return [r.ts for r in Simulation(scs).run()]
 
@@ -174,9 +174,10 @@ def test_asymmetric_damping_force_law_table_with_linear_extrapolation():
     assert e.force(s, v, 0.0, 5e-4)[1, 2] == pytest.approx(-(900.0 + 1100.0 * 1.0))
 
 
-def test_coulomb_friction_force_law():
-    e = make_effect("coulomb_friction", [{"force": [50.0, 100.0, 150.0, 200.0], "v_eps": [0.02, 0.02, 0.05, 0.1]},
-                                         {"force": [120.0, 0.0, 80.0, 60.0], "v_eps": [0.01, 0.02, 0.03, 0.04]}])
+def test_coulomb_friction_tanh_force_law():
+    e = make_effect("coulomb_friction", [
+        {"law": "tanh", "force": [50.0, 100.0, 150.0, 200.0], "v_eps": [0.02, 0.02, 0.05, 0.1]},
+        {"law": "tanh", "force": [120.0, 0.0, 80.0, 60.0], "v_eps": [0.01, 0.02, 0.03, 0.04]}])
     s, v = sv_grid()
     v[1, 1] = 0.005
     F = np.array([[50.0, 100.0, 150.0, 200.0], [120.0, 0.0, 80.0, 60.0]])
@@ -189,12 +190,36 @@ def test_coulomb_friction_force_law():
     assert got[0, 0] == 0.0
 
 
-def test_coulomb_friction_warns_when_regularisation_too_stiff_for_dt():
-    with pytest.warns(UserWarning, match="v_eps"):
-        make_effect("coulomb_friction", [{"force": 1000.0, "v_eps": 1e-4}])
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
-        make_effect("coulomb_friction", [{"force": 100.0, "v_eps": 0.01}])
+def test_coulomb_friction_stick_slip_law_on_a_sliding_mass():
+    """The default law on the relative body–wheel mass of each corner, driven by a constant force P per
+    corner: |P| < F_c -> the mass stops within two steps and then stays exactly still (no creep);
+    |P| > F_c -> it slides with the friction force exactly −F_c·sgn(v)."""
+    dt = 5e-4
+    Fc = np.array([[100.0, 200.0, 300.0, 400.0], [150.0, 150.0, 50.0, 500.0]])
+    e = make_effect("coulomb_friction", [{"force": list(Fc[0])}, {"force": list(Fc[1])}], dt=dt)
+    ms = e.ctx.static_suspension_force / G
+    mu = e.ctx.static_tire_force / G - ms
+    m_r = 1.0 / (1.0 / ms + 1.0 / mu)
+    P = np.array([[50.0, -150.0, 600.0, -800.0], [-100.0, 400.0, 0.0, 450.0]])
+    v = np.where(P < 0, -0.05, 0.05)  # sliding ones start moving along P
+    v[0, 1] = -0.02  # slides against P first, then sticks
+    s = np.zeros_like(P)
+    Fs = []
+    for k in range(400):
+        F = e.force(s, v, k * dt, dt)
+        Fs.append(F)
+        v = v + dt * (P + F) / m_r
+        s = s + dt * v
+    Fs = np.array(Fs)
+    sticks = np.abs(P) < Fc
+    assert np.all(v[sticks] == pytest.approx(0.0, abs=1e-12))
+    np.testing.assert_allclose(Fs[-1][sticks], -P[sticks], rtol=1e-9)  # holds exactly the load
+    np.testing.assert_allclose(Fs[10:, ~sticks], np.broadcast_to(-Fc[~sticks] * np.sign(P[~sticks]),
+                                                                  Fs[10:, ~sticks].shape), rtol=1e-12)
+    slide = ~sticks
+    np.testing.assert_allclose(v[slide], np.sign(P[slide]) * 0.05 + 400 * dt * (P[slide] - Fc[slide] * np.sign(P[slide]))
+                               / m_r[slide], rtol=1e-9)
+    assert np.all(np.abs(Fs) <= Fc * (1 + 1e-12))
 
 
 def test_bump_stop_force_law():
@@ -305,16 +330,48 @@ def test_asymmetric_damping_trajectory_table_replacing_linear_damper():
     check(compare(ts, out))
 
 
-@pytest.mark.parametrize("Fc,amp,freq", [(150.0, 0.03, 1.5), (300.0, 0.01, 1.0)], ids=["slip", "stick"])
-def test_coulomb_friction_trajectory(Fc, amp, freq):
-    """Regularised friction (v_eps = 1 cm/s): mostly sliding, and mostly sticking (|v| < v_eps most of the
-    time), each against the reference with the same law."""
+@pytest.mark.parametrize("Fc,amp,freq", [(150.0, 0.03, 1.5), (300.0, 0.02, 1.3)], ids=["sliding", "mixed"])
+def test_coulomb_friction_trajectory_against_exact_stick_slip(Fc, amp, freq):
+    """Default law against the reference with exact (set-valued) Coulomb friction and event-located
+    stick/slip switches: mostly sliding (sticks ≈ 5 % of the time) and mixed (≈ 20 %)."""
     rp = dict(amplitude=amp, frequency=freq, fade_in=0.3)
-    ts, = run_sim([{"type": "coulomb_friction", "params": {"force": Fc, "v_eps": 0.01}}], rp, 3.0)
+    ts, = run_sim([{"type": "coulomb_friction", "params": {"force": Fc}}], rp, 3.0)
+    out = QuarterCarRef(road=road_fn(rp), coulomb_force=Fc).simulate(ts.t.values)
+    assert 0.03 < out["stuck"].mean() < 0.5
+    assert np.sum(np.diff(out["stuck"].astype(int)) != 0) >= 6  # several stick/slip switches
+    check(compare(ts, out))
+
+
+def test_coulomb_friction_trajectory_sticking_most_of_the_time():
+    """A 1 cm, 1 Hz road against 300 N friction: the exact model sticks 95 % of the time.
+
+    At dt = 0.5 ms positions and travel are within 1 %, but body acceleration is 3.7 % off: its harmonics
+    come from the stick/slip switches, whose timing the time-stepping resolves to O(dt) (the tire is
+    undamped, so nothing damps the difference).  The error is first order in dt (measured 3.7, 1.75,
+    0.85 % at 0.5, 0.25, 0.1 ms; MuJoCo's native tendon frictionloss with its stiffest solref: 3.1 % at
+    0.5 ms), so body acceleration is checked at dt = 0.1 ms, with the convergence."""
+    Fc = 300.0
+    rp = dict(amplitude=0.01, frequency=1.0, fade_in=0.3)
+    eff = [{"type": "coulomb_friction", "params": {"force": Fc}}]
+    ts, = run_sim(eff, rp, 3.0)
+    out = QuarterCarRef(road=road_fn(rp), coulomb_force=Fc).simulate(ts.t.values)
+    assert out["stuck"].mean() > 0.9
+    coarse = compare(ts, out)
+    check({k: coarse[k] for k in ("body_z", "travel")})
+    fine, = run_sim(eff, rp, 3.0, dt=1e-4)
+    errs = compare(fine, out)
+    check(errs)
+    assert errs["body_acc"] < coarse["body_acc"] / 3
+
+
+def test_coulomb_friction_tanh_trajectory():
+    """The smooth law against the reference with the same tanh law (v_eps = 1 cm/s)."""
+    Fc = 150.0
+    rp = dict(amplitude=0.03, frequency=1.5, fade_in=0.3)
+    ts, = run_sim([{"type": "coulomb_friction", "params": {"force": Fc, "law": "tanh", "v_eps": 0.01}}], rp, 3.0)
     out = QuarterCarRef(road=road_fn(rp), suspension_forces=[lambda s, v, t: -Fc * np.tanh(v / 0.01)]
                         ).simulate(ts.t.values)
-    v = out["travel_rate"]
-    assert np.sum(np.diff(np.sign(v[500:])) != 0) >= 4  # velocity reversals
+    assert np.sum(np.diff(np.sign(out["travel_rate"][500:])) != 0) >= 4  # velocity reversals
     check(compare(ts, out))
 
 
