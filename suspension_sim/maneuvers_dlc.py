@@ -15,7 +15,8 @@ section     length (m)   lane width (m)       lateral position
 
 The 3.5 m lateral offset is between the right-hand cone lines of lanes 1 and 3 (the lanes widen), so the
 lane centrelines are offset by 3.5 + (w3 − w1)/2 = 3.5 + 0.05·w.  Reference path: the centrelines, joined
-in sections 2 and 4 by half-cosine transitions (zero slope at both ends).
+in sections 2 and 4 by cycloid transitions y = Δ·(u − sin(2πu)/2π), u = distance fraction (slope and
+curvature zero at both ends, so the driver's curvature feed-forward never steps).
 
 Vehicle: a linear single-track (bicycle) model at constant speed ``speed`` (states lateral velocity v_y and
 yaw rate r, plus the yaw angle ψ and lateral position Y), with axle forces saturating smoothly at μ·F_z:
@@ -83,9 +84,9 @@ def reference_path(X, width: float = 1.8, offset: float = 3.5):
     for (x0, x1, ya, yb) in ((xs[1], xs[2], 0.0, y3), (xs[3], xs[4], y3, 0.0)):
         L = x1 - x0
         u = np.clip((X - x0) / L, 0.0, 1.0)
-        inside = (X > x0) & (X < x1)
-        y = y + np.where(X >= x0, (yb - ya) * 0.5 * (1 - np.cos(np.pi * u)), 0.0)
-        kappa = kappa + np.where(inside, (yb - ya) * 0.5 * (np.pi / L) ** 2 * np.cos(np.pi * u), 0.0)
+        # cycloid transition: slope and curvature are zero at both ends (continuous curvature, no step steer)
+        y = y + (yb - ya) * (u - np.sin(2 * np.pi * u) / (2 * np.pi))
+        kappa = kappa + (yb - ya) * 2 * np.pi / L ** 2 * np.sin(2 * np.pi * u)
     return y, kappa
 
 
