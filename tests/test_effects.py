@@ -418,16 +418,18 @@ def test_cubic_stiffness_trajectory():
     check(compare(ts, out))
 
 
-def test_tire_liftoff_trajectory():
-    """A 0.1 m, 1.4 Hz sine lifts the wheel off the road on every cycle (≈ 20 % of the time)."""
+@pytest.mark.parametrize("ct", [0.0, 1000.0])
+def test_tire_liftoff_trajectory(ct):
+    """A 0.1 m, 1.4 Hz sine lifts the wheel off the road on every cycle (≈ 20 % of the time); with and
+    without tire damping."""
     rp = dict(amplitude=0.1, frequency=1.4, fade_in=0.3)
-    ts, = run_sim([{"type": "tire_liftoff"}], rp, 3.0)
+    ts, = run_sim([{"type": "tire_liftoff"}], rp, 3.0, vehicle_params={"tire_damping": ct})
     static = (MS + MU) * G
 
-    def unilateral(x, xd, t):  # the linear tire would pull by kt·x − static when stretched past it
-        return max(0.0, KT * x - static)
+    def unilateral(x, xd, t):  # the linear tire would pull by kt·x + ct·xd − static when stretched past it
+        return max(0.0, KT * x + ct * xd - static)
 
-    out = QuarterCarRef(road=road_fn(rp), tire_forces=[unilateral]).simulate(ts.t.values)
+    out = QuarterCarRef(road=road_fn(rp), tire_damping=ct, tire_forces=[unilateral]).simulate(ts.t.values)
     lifted = out["tire_force"] <= -static + 1e-6
     assert lifted.mean() > 0.1
     assert np.all(ts.tire_force.values >= -static - 1e-6)  # the simulator's tire never pulls either
@@ -467,3 +469,14 @@ def test_spring_stiffness_step_changes_response_as_formula_says():
     # and the change is visible: the nominal-stiffness reference is far off
     nominal = QuarterCarRef(road=road_fn(rp)).simulate(ts.t.values)
     assert nrmse(ts.travel.values, nominal["travel"]) > 0.2
+
+
+def test_damping_varying_as_a_sine_follows_the_reference():
+    """Mode II-style variation: c(t) = c0·(1 + 0.5·sin(2π·0.5·t)) while riding a 1.5 Hz sine."""
+    var = [{"param": "damping", "kind": "sine", "mode": "scale", "values": [0.5, 0.5]}]
+    rp = dict(amplitude=0.03, frequency=1.5, fade_in=0.3)
+    ts, = run_sim([], rp, 3.0, variations=var)
+    out = QuarterCarRef(road=road_fn(rp), damping=lambda t: CS * (1 + 0.5 * np.sin(np.pi * t))).simulate(ts.t.values)
+    check(compare(ts, out))
+    nominal = QuarterCarRef(road=road_fn(rp)).simulate(ts.t.values)
+    assert nrmse(ts.travel.values, nominal["travel"]) > 0.03  # the variation is visible
