@@ -147,10 +147,24 @@ def solve_lmis(A0, A1, Q, margin=1e-6, solver=None):
         except cp.error.SolverError as err:  # try the next solver
             status = f"solver error ({err})"
             continue
-        if status in ("optimal", "optimal_inaccurate"):
+        if status in ("optimal", "optimal_inaccurate") and _lmis_hold(A0, A1, P0.value, P1.value, Q):
             return np.asarray(P0.value), np.asarray(P1.value)
+        status = f"{status}, LMIs violated by the returned P" if status.startswith("optimal") else status
     raise ScenarioError(f"LMIs (14)-(16) infeasible for this corner's model (status: {status}); reduce "
                         f"mass_uncertainty or change q_weights", field="controller.params")
+
+
+def _lmis_hold(A0, A1, P0, P1, Q, tol=1e-7) -> bool:
+    """Check the solver's P0, P1: P(θ) > 0 and A(θ)ᵀP(θ) + P(θ)A(θ) + Q ≤ 0 at θ = ±1 (and on a grid,
+    which multi-convexity implies), relative to the size of P."""
+    if P0 is None or P1 is None:
+        return False
+    scale = max(np.abs(P0).max(), np.abs(Q).max(), 1e-300)
+    for th in np.linspace(-1.0, 1.0, 11):
+        A, P = A0 + th * A1, P0 + th * P1
+        if np.linalg.eigvalsh(P).min() <= 0 or np.linalg.eigvalsh(A.T @ P + P @ A + Q).max() > tol * scale:
+            return False
+    return True
 
 
 def _row(v) -> np.ndarray:

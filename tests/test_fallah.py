@@ -1,0 +1,142 @@
+"""Fallah, Sorniotti & Gruber robust bang-bang controller (controllers/fallah.py).
+
+- the LMI solution: P(θ) > 0 and A(θ)ᵀP(θ) + P(θ)A(θ) < 0 on a fine θ grid (not only the two vertices the
+  LMIs constrain: multi-convexity must carry them over), the affine model is exact in 1/m_s; an unstable
+  corner model gives a one-line ScenarioError;
+- the reconstructed hybrid differentiator (19) is a derivative (exact on quadratics);
+- closed loop on the full car, bump at 35 km/h and the ISO 3888-1 double lane change, against passive:
+  forces within ±f_max; controlled beats passive on the comfort metrics (bump: RMS heave acceleration,
+  RMS and peak pitch; DLC: RMS roll acceleration and RMS vertical acceleration of the body above the
+  corners); the estimator tracks the truth: Δ̇ within 1 % (RMS, relative), and the corner body velocity
+  estimate equals what the paper's method must give — true corner velocity minus the moving mean of the
+  true c.g. velocity over the window — within 2 % (the mean removal itself is the method's error, stated in
+  docs/issue5_results.md).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from controllers.fallah import HYBRID_COEFS, affine_model, quarter_car_matrices, solve_lmis
+from suspension_sim.config import load_scenario
+from suspension_sim.errors import ScenarioError
+from suspension_sim.simulation import Simulation
+
+SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+SCALES = np.array([0.05, 0.2, 0.05, 0.5])
+Q = np.diag([1.0, 4.0, 1.0, 0.1])
+
+
+def _solve(ms=416.5, mu=40.0, ks=20000.0, bs=1700.0, kt=200000.0, rel=0.1):
+    A0, A1 = affine_model(ms, mu, ks, bs, kt, rel)
+    Sc, Si = np.diag(SCALES), np.diag(1 / SCALES)
+    P0, P1 = solve_lmis(Si @ A0 @ Sc, Si @ A1 @ Sc, Q)
+    return A0, A1, Si @ P0 @ Si, Si @ P1 @ Si
+
+
+def test_lmi_solution_holds_over_the_whole_uncertainty_range():
+    ms, rel = 416.5, 0.1
+    A0, A1, P0, P1 = _solve(ms=ms, rel=rel)
+    for th in np.linspace(-1, 1, 41):
+        A, P = A0 + th * A1, P0 + th * P1
+        assert np.linalg.eigvalsh(P).min() > 0
+        assert np.linalg.eigvalsh(A.T @ P + P @ A).max() < 0
+    assert np.linalg.eigvalsh(A1.T @ P1 + P1 @ A1).min() > -1e-6 * np.abs(P1).max()
+    # θ = ±1 are the mass bounds (A is affine in 1/m_s)
+    Alo, _, _ = quarter_car_matrices((1 + rel) * ms, 40.0, 20000.0, 1700.0, 200000.0)
+    Ahi, _, _ = quarter_car_matrices((1 - rel) * ms, 40.0, 20000.0, 1700.0, 200000.0)
+    np.testing.assert_allclose(A0 - A1, Alo, rtol=1e-12)
+    np.testing.assert_allclose(A0 + A1, Ahi, rtol=1e-12)
+
+
+@pytest.mark.filterwarnings("ignore:Solution may be inaccurate")
+def test_infeasible_lmis_give_a_clear_error():
+    with pytest.raises(ScenarioError, match="infeasible"):
+        _solve(ks=-20000.0)  # a negative spring: no quadratic Lyapunov function exists
+
+
+def test_hybrid_differentiator_is_exact_on_quadratics():
+    dt = 1e-3
+    t = -dt * np.arange(6)
+    for f, df in ((lambda x: 3 + 2 * x, 2.0), (lambda x: 1 - 4 * x + 7 * x ** 2, -4.0)):
+        assert HYBRID_COEFS @ f(t) / dt == pytest.approx(df, rel=1e-9)
+
+
+def _pair(path, duration):
+    sc = load_scenario(path, overrides=[f"sim.duration={duration}"])
+    out = {}
+    for name, s in sc.expand(path):
+        out[name] = Simulation([s], path).run()[0]
+    return out
+
+
+@pytest.fixture(scope="module")
+def bump():
+    return _pair(str(SCENARIOS / "fallah_bump.yaml"), 3.0)
+
+
+@pytest.fixture(scope="module")
+def dlc():
+    return _pair(str(SCENARIOS / "fallah_dlc.yaml"), 6.5)
+
+
+def _forces(r):
+    ts = r.ts
+    return np.stack([ts[f"actuator_force{s}"] for s in r.info["suffixes"]])
+
+
+def _corner_truth(r):
+    ts, info = r.ts, r.info
+    v = np.stack([ts.body_vel + y * ts.roll_rate - x * ts.pitch_rate for x, y in zip(info["corner_x"], info["corner_y"])])
+    acc = np.stack([ts.body_acc + y * ts.roll_acc - x * ts.pitch_acc for x, y in zip(info["corner_x"], info["corner_y"])])
+    return v, acc
+
+
+def _rms(x):
+    return float(np.sqrt(np.mean(np.square(x))))
+
+
+@pytest.mark.parametrize("case", ["bump", "dlc"])
+def test_forces_within_bounds(case, request):
+    r = request.getfixturevalue(case)["fallah"]
+    F = _forces(r)
+    assert np.abs(F).max() <= 6000.0 + 1e-9
+    assert np.abs(F).max() > 100.0  # the controller does act
+
+
+def test_bump_controlled_beats_passive(bump):
+    p, c = bump["passive"].metrics, bump["fallah"].metrics
+    for k in ("body_acc_rms", "pitch_rms", "pitch_peak", "pitch_acc_rms"):
+        assert c[k] < p[k], k
+
+
+def test_dlc_controlled_beats_passive(dlc):
+    p, c = dlc["passive"], dlc["fallah"]
+    assert c.metrics["roll_acc_rms"] < p.metrics["roll_acc_rms"]
+    assert _rms(_corner_truth(c)[1]) < _rms(_corner_truth(p)[1])  # vertical acceleration above the corners
+    assert c.metrics["roll_rms"] < p.metrics["roll_rms"]
+
+
+def _moving_mean(x, n):
+    c = np.concatenate([[0.0], np.cumsum(x)])
+    k = np.arange(1, len(x) + 1)
+    lo = np.maximum(k - n, 0)
+    return (c[k] - c[lo]) / (k - lo)
+
+
+@pytest.mark.parametrize("case", ["bump", "dlc"])
+def test_estimator_tracks_truth(case, request):
+    r = request.getfixturevalue(case)["fallah"]
+    ts = r.ts
+    v_true, _ = _corner_truth(r)
+    for c, s in enumerate(r.info["suffixes"]):
+        dv = ts[f"travel_rate{s}"].to_numpy()
+        assert _rms(ts[f"ctrl.dv_hat.{c}"] - dv) < 0.01 * _rms(dv)
+    # the c.g. velocity by integration with moving-mean removal: v − mean_window(v) (window 2 s at 1 kHz);
+    # the gyros map it to the corners exactly
+    v_cg = ts.body_vel.to_numpy()
+    expected = v_true - _moving_mean(v_cg, 2000)
+    est = np.stack([ts[f"ctrl.vs_hat.{c}"] for c in range(4)])
+    assert _rms(est - expected) < 0.02 * _rms(v_true)
