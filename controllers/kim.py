@@ -99,7 +99,7 @@ class Kim(Controller):
 
     @classmethod
     def required_sensors(cls, raw):
-        req = [raw.get("force_sensor", "actuator_force"), "travel", "travel_rate", "corner_body_vel",
+        req = [str(raw.get("force_sensor", "actuator_force")), "travel", "travel_rate", "corner_body_vel",
                raw.get("spool_sensor", "spool_position")]
         if raw.get("use_fd_dot", True) or float(raw.get("rate_prediction", 0) or 0) > 0:
             req += ["corner_body_acc", "wheel_acc"]
@@ -127,6 +127,8 @@ class Kim(Controller):
         self.x = np.zeros(sh)
 
     def _get(self, y, name):
+        if isinstance(name, list):  # a string parameter that differs across the ensemble: one name per car
+            return np.stack([self._get(y, nm)[i] for i, nm in enumerate(name)])
         return y[name] if name in y else y[f"state.{name}"]
 
     def step(self, t, y):

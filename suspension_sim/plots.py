@@ -231,7 +231,41 @@ def plot_run(results, out_dir) -> list[Path]:
     written.append(_time_series(results, out_dir, "actuator_force.png",
                                 "Actuator force (+ = body up, wheel down)", "actuator_force", "force (N)"))
     written.append(_attitude(results, out_dir))
+    # runs with actuator states or controller signals (hydraulic actuator, adaptive controllers) also get
+    # those and the body/wheel displacements (the quantities of the papers' figures)
+    if any(c.startswith(("act.", "ctrl.")) for r in results.values() for c in r.ts.columns):
+        written.append(_signals(results, out_dir, ("body_z", "wheel_z"), "displacements.png",
+                                "Body and wheel displacement from equilibrium (m)"))
+        written.append(_signals(results, out_dir, "act.", "actuator_states.png", "Actuator internal states"))
+        written.append(_signals(results, out_dir, "ctrl.", "controller_signals.png", "Controller signals"))
     return [p for p in written if p is not None]
+
+
+def _signals(results: dict, out_dir: Path, select, fname: str, title: str, max_panels: int = 12) -> Path | None:
+    """One panel per channel (``select``: a column-name prefix or a tuple of names), runs overlaid: actuator
+    states (spool position, load pressure, ...), controller signals (desired force, estimates, errors)."""
+    names: list[str] = []
+    for r in results.values():
+        for c in r.ts.columns:
+            ok = c in select if isinstance(select, tuple) else c.startswith(select)
+            if ok and c not in names:
+                names.append(c)
+    names = names[:max_panels]
+    if not names:
+        return None
+    col = _colors(results)
+    fig, axes = _fig(len(names), height=2.0)
+    for ax, ch in zip(axes, names):
+        n = 0
+        for k, r in results.items():
+            if ch in r.ts:
+                ax.plot(r.ts["t"], r.ts[ch].to_numpy(), lw=0.9, color=col[k], label=k)
+                n += 1
+        _style(ax, ch)
+        _legend(ax, n)
+    axes[-1].set_xlabel("time (s)")
+    fig.suptitle(title + _title_suffix(results), fontsize=12)
+    return _save(fig, out_dir / fname)
 
 
 def _attitude(results: dict, out_dir: Path) -> Path | None:
