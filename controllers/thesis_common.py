@@ -1,0 +1,237 @@
+"""Shared pieces of the thesis controllers (Vallurupalli 1996, Ch. 3–7): vectorised discrete filters,
+recursive least squares with covariance addition, the d-step-ahead predictor (Goodwin–Sin) of a DARMA
+model with matrix polynomials, and the reference models.
+
+Not a controller itself (nothing is registered here).  Every array is vectorised over the ensemble: a
+leading axis ``n_cars``.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import cont2discrete
+
+GRAVITY = 9.81
+
+
+def _f(x) -> float:
+    """The first value of a stacked parameter (controllers here take one value for the whole ensemble
+    where a structural quantity is concerned)."""
+    return float(np.asarray(x, dtype=float).reshape(-1)[0])
+
+
+def col(x, n: int) -> np.ndarray:
+    """A stacked scalar parameter as a column (n_cars,)."""
+    return np.broadcast_to(np.asarray(x, dtype=float).reshape(-1), (n,)).astype(float)
+
+
+class FilterBank:
+    """``k`` copies of one continuous LTI filter (A, B, C, D), discretised by zero-order hold at ``dt``
+    (``scipy.signal.cont2discrete``), run on inputs of shape (n_cars, k, n_in).
+
+    :meth:`output` gives y[k] = C x[k] + D u[k] (the state holds the inputs up to k−1), :meth:`update`
+    advances the state with u[k].  A strictly proper filter (D = 0) can therefore take a signal that is only
+    computed from its own output (no algebraic loop)."""
+
+    def __init__(self, A, B, C, D, dt: float, n: int, k: int = 1, method: str = "zoh"):
+        Ad, Bd, Cd, Dd, _ = cont2discrete((np.atleast_2d(A), np.atleast_2d(B), np.atleast_2d(C),
+                                           np.atleast_2d(D)), dt, method=method)
+        self.Ad, self.Bd, self.Cd, self.Dd = Ad, Bd, Cd, Dd
+        self.x = np.zeros((n, k, Ad.shape[0]))
+
+    @classmethod
+    def tf(cls, num, den, dt, n, k=1):
+        """From a transfer function (numerator/denominator coefficients, highest power first)."""
+        from scipy.signal import tf2ss
+
+        A, B, C, D = tf2ss(num, den)
+        return cls(A, B, C, D, dt, n, k)
+
+    def output(self, u=None) -> np.ndarray:
+        y = np.einsum("oj,nkj->nko", self.Cd, self.x)
+        if u is not None and np.any(self.Dd):
+            y = y + np.einsum("oi,nki->nko", self.Dd, np.asarray(u).reshape(y.shape[0], y.shape[1], -1))
+        return y
+
+    def update(self, u) -> None:
+        u = np.asarray(u, dtype=float).reshape(self.x.shape[0], self.x.shape[1], -1)
+        self.x = np.einsum("ij,nkj->nki", self.Ad, self.x) + np.einsum("ij,nkj->nki", self.Bd, u)
+
+
+def rls_update(theta, P, phi, target, q: float, trace_max: float):
+    """One step of recursive least squares with covariance addition (Vogel & Edgar, thesis Eq. 4.56),
+    vectorised over cars; matrix form with a shared covariance (thesis Ch. 7).
+
+    theta (n, p, m) parameter matrix, P (n, p, p), phi (n, p) regressor, target (n, m): the model is
+    target ≈ thetaᵀ phi.  After the update P ← P − Pφφᵀ P/(1 + φᵀPφ) + q·I; the addition is dropped for a
+    car whose trace of P would exceed ``trace_max``.  Returns the prediction error (n, m) before the update.
+    """
+    Pphi = np.einsum("nij,nj->ni", P, phi)
+    denom = 1.0 + np.einsum("ni,ni->n", phi, Pphi)
+    err = target - np.einsum("npm,np->nm", theta, phi)
+    theta += np.einsum("np,nm->npm", Pphi / denom[:, None], err)
+    P -= np.einsum("ni,nj->nij", Pphi, Pphi) / denom[:, None, None]
+    p = P.shape[1]
+    add = (np.trace(P, axis1=1, axis2=2) + q * p) < trace_max
+    P += np.where(add[:, None, None], q * np.eye(p)[None], 0.0)
+    P[:] = 0.5 * (P + np.transpose(P, (0, 2, 1)))
+    return err
+
+
+def darma(Ac, Bc, Cc, dt):
+    """DARMA form A(q⁻¹) Y[k] = B(q⁻¹) U[k] of a continuous 2nd-order-per-output MIMO model
+    ẋ = Ac x + Bc u, y = Cc x with x = [y, ẏ] (2m states), by ZOH discretisation.  Returns the matrix
+    coefficient lists A = [I, A1, A2] and B = [0, B1, B2] (B0 = 0: the ZOH delay of one step).
+
+    The discrete state model x[k+1] = Φx[k] + Γu[k] of order 2m with m outputs is converted by the
+    observability form: with O = [C; CΦ] invertible, Y[k+2] = CΦ²O⁻¹[Y[k]; Y[k+1]] + (terms in u)."""
+    Phi, Gam, _, _, _ = cont2discrete((Ac, Bc, Cc, np.zeros((Cc.shape[0], Bc.shape[1]))), dt, method="zoh")
+    m = Cc.shape[0]
+    O = np.vstack([Cc, Cc @ Phi])
+    L = Cc @ Phi @ Phi @ np.linalg.inv(O)  # Y[k+2] = L[:, :m] Y[k] + L[:, m:] Y[k+1] + ...
+    # y[k+1] = CΦx + CΓu[k];  y[k+2] = CΦ²x + CΦΓu[k] + CΓu[k+1]
+    # x = O⁻¹([y[k]; y[k+1]] − [0; CΓu[k]])
+    Oi = np.linalg.inv(O)
+    Lu = -(Cc @ Phi @ Phi @ Oi[:, m:]) @ (Cc @ Gam)  # effect of u[k] through the O⁻¹ correction
+    A1 = -L[:, m:]
+    A2 = -L[:, :m]
+    B1 = Cc @ Gam  # coefficient of u[k+1] in y[k+2]  -> q⁻¹
+    B2 = Cc @ Phi @ Gam + Lu  # coefficient of u[k] in y[k+2] -> q⁻²
+    I = np.eye(m)
+    return [I, A1, A2], [np.zeros_like(B1), B1, B2]
+
+
+def predictor(A, B, am, d):
+    """Goodwin–Sin d-step-ahead predictor (thesis Eqs. 4.47–4.49, matrix form of Ch. 7).
+
+    Plant: A(q⁻¹) Y[k] = q⁻ᵈ B'(q⁻¹) U[k] where here ``B`` is given with its ZOH delay included
+    (B[0] = 0) and ``d`` counts *extra* whole-sample delays (the loop delay).  ``am``: scalar reference
+    polynomial coefficients [1, am1, am2].  Returns (D, alpha, beta): the total delay D = d + 1 and matrix
+    coefficient lists with  am(q⁻¹) Y[k+D] = Σ alpha_i Y[k−i] + Σ beta_j U[k−j]  (i = 0, 1; j = 0..D).
+    Solved by F(q⁻¹)A(q⁻¹) + q⁻ᴰG(q⁻¹) = am(q⁻¹)·I with F of degree D−1 (F0 = I), alpha = G,
+    beta = F·B shifted by the delay."""
+    m = A[0].shape[0]
+    D = d + 1
+    I = np.eye(m)
+    am = list(am) + [0.0] * (D + 3)
+    na = len(A) - 1
+    F = [I.copy()]
+    for j in range(1, D):
+        Fj = am[j] * I - sum(F[j - i] @ A[i] for i in range(1, min(j, na) + 1))
+        F.append(Fj)
+    G = []
+    for j in range(D, D + na):
+        Gj = am[j] * I - sum(F[j - i] @ A[i] for i in range(1, na + 1) if 0 <= j - i < D)
+        G.append(Gj)
+    # F·B with B = [0, B1, B2]: coefficient of q^-(j+1) -> beta_j (the q^-1 absorbed in D)
+    Bs = B[1:]
+    beta = [np.zeros((m, Bs[0].shape[1])) for _ in range(D + len(Bs) - 1)]
+    for i, Fi in enumerate(F):
+        for j, Bj in enumerate(Bs):
+            beta[i + j] += Fi @ Bj
+    return D, G, beta
+
+
+def theta_from_predictor(alpha, beta, with_bias=True):
+    """Controller parameter matrix Θ (p × m) of the linear control law U[k] = Θᵀ φ[k] with
+    φ[k] = [−Y[k], −Y[k−1], −U[k−1], …, −U[k−nb+1], −1, Ȳ*[k+D]] (thesis Eq. 4.55, matrix form):
+    Θ = [β0⁻¹α0, β0⁻¹α1, β0⁻¹β1, …, β0⁻¹c, β0⁻¹]ᵀ.  The bias c (operating-point force: static load,
+    manoeuvre moment) starts at 0."""
+    Bi = np.linalg.inv(beta[0])
+    blocks = [Bi @ a for a in alpha] + [Bi @ b for b in beta[1:]]
+    if with_bias:
+        blocks.append(np.zeros((Bi.shape[0], 1)))
+    blocks.append(Bi)
+    return np.hstack(blocks).T
+
+
+def am_poly(wn: float, zeta: float, dt: float):
+    """Discrete reference polynomial [1, am1, am2] with the poles of s² + 2ζωs + ω² mapped by z = e^(s·dt)."""
+    poles = np.roots([1.0, 2 * zeta * wn, wn * wn])
+    return np.real(np.poly(np.exp(poles * dt)))
+
+
+class DiscreteMRAC:
+    """Discrete direct MRAC of thesis Ch. 4 (SISO) and Ch. 7 (MIMO, matrix least squares), vectorised.
+
+    DARMA model A(q⁻¹)Y[k] = q⁻ᴰ B(q⁻¹) U[k] + c with m outputs and m inputs (``darma`` + ``predictor``);
+    control law U[k] = Θᵀ φ[k] with φ[k] = [−Y[k], −Y[k−1], −U[k−1], …, −U[k−D], −1, Ȳ*[k+D]] where
+    Ȳ*[k+D] = a_m(q⁻¹)Y*[k+D] is the filtered reference output; Θ is estimated by recursive least squares
+    on the identity U[k−D] = Θᵀ φ̃[k−D] (φ̃ carries the measured Ȳ[k] = a_m(q⁻¹)Y[k] in its last block),
+    with covariance addition q·I bounded by a trace limit (Vogel–Edgar) and one covariance P shared by the
+    m columns of Θ (the thesis's matrix least squares).  After each update the β0⁻¹ block (the rows of
+    Ȳ*) is projected: its diagonal keeps the sign of the nominal value and a magnitude between
+    ``beta_inv_range`` × nominal (the thesis's sign/magnitude constraint on (β0)⁻¹).
+
+    ``kappa`` < 1 weights the control increments (Goodwin–Sin weighted one-step-ahead control with the
+    cost (Y − Y*)² + λ(ΔU)², κ = β0²/(β0² + λ)): U[k] = κ·Θᵀφ[k] + (1 − κ)·U[k−1].  The pure d-step-ahead
+    law (κ = 1, the thesis) cancels the zero that zero-order-hold sampling puts near z = −1 for a
+    relative-degree-two plant, so its control rings at the Nyquist frequency; κ < 1 removes the
+    cancellation and keeps zero steady-state error (the estimator's identity holds for any input).
+
+    The regressor is scaled internally by the nominal magnitudes of Θ (parameters of order 1), so one
+    scalar ``p0`` and ``q`` serve all entries.
+    """
+
+    def __init__(self, theta0, m, D, am, n, p0, q, trace_max, beta_inv_range=(0.2, 5.0), u_max=None,
+                 bias_scale=1000.0, kappa=1.0):
+        self.kappa = kappa
+        self.m, self.D, self.am, self.n = m, D, np.asarray(am, dtype=float), n
+        theta0 = np.asarray(theta0, dtype=float)
+        self.p = theta0.shape[0]
+        # scaling: per-row magnitude of the nominal Θ (floor for zero rows: bias)
+        sc = np.max(np.abs(theta0), axis=1)
+        sc[sc == 0] = bias_scale
+        self.sc = sc
+        self.theta = np.tile((theta0 / sc[:, None])[None], (n, 1, 1))
+        self.P = np.tile(p0 * np.eye(self.p)[None], (n, 1, 1))
+        self.q, self.trace_max = q, trace_max
+        self.bi = slice(self.p - m, self.p)
+        self.bi_nom = np.diag(theta0[self.bi]) / sc[self.bi]
+        self.bi_range = beta_inv_range
+        self.u_max = u_max
+        nh = 2 * D + 3
+        self.Y = np.zeros((n, nh, m))  # Y[k], Y[k−1], ...
+        self.U = np.zeros((n, nh, m))  # U[k−1], U[k−2], ...
+        self.Phi = np.zeros((n, D + 1, self.p))  # regressors of k, k−1, …, k−D
+        self.err = np.zeros((n, m))
+
+    def _phi(self, ybar_star):
+        parts = [-self.Y[:, 0], -self.Y[:, 1]] + [-self.U[:, j] for j in range(self.D)]
+        parts += [-np.ones((self.n, 1)), ybar_star]
+        return np.concatenate(parts, axis=1) * self.sc[None, :]
+
+    def step(self, y, ybar_star, estimate=True):
+        """y (n, m): output at k; ybar_star (n, m): a_m(q⁻¹)Y*[k+D].  Returns U[k] (n, m)."""
+        self.Y = np.roll(self.Y, 1, axis=1)
+        self.Y[:, 0] = y
+        am = self.am
+        ybar = am[0] * y + am[1] * self.Y[:, 1] + am[2] * self.Y[:, 2]
+        if estimate:
+            phi_old = self.Phi[:, self.D - 1].copy()  # regressor of k − D
+            started = np.any(phi_old != 0, axis=1)
+            phi_old[:, self.bi] = ybar * self.sc[None, self.bi]
+            u_old = self.U[:, self.D - 1]  # U[k−D]
+            if np.any(started):
+                th, P = self.theta[started], self.P[started]
+                self.err[started] = rls_update(th, P, phi_old[started], u_old[started], self.q, self.trace_max)
+                d = th[:, self.bi, :]  # (n', m, m) block: rows of Ȳ*
+                for i in range(self.m):
+                    lo, hi = sorted((self.bi_range[0] * self.bi_nom[i], self.bi_range[1] * self.bi_nom[i]))
+                    d[:, i, i] = np.clip(d[:, i, i], lo, hi)
+                th[:, self.bi, :] = d
+                self.theta[started], self.P[started] = th, P
+        phi = self._phi(ybar_star)
+        u = np.einsum("npm,np->nm", self.theta, phi)
+        if self.kappa < 1.0:  # weighted control increments: low-pass of the d-step-ahead solution
+            u = self.kappa * u + (1.0 - self.kappa) * self.U[:, 0]
+        if self.u_max is not None:
+            u = np.clip(u, -self.u_max, self.u_max)
+        self.Phi = np.roll(self.Phi, 1, axis=1)
+        self.Phi[:, 0] = phi
+        self.U = np.roll(self.U, 1, axis=1)
+        self.U[:, 0] = u
+        return u
+
+    @property
+    def theta_unscaled(self):
+        return self.theta * self.sc[None, :, None]
