@@ -2,10 +2,10 @@
 from __future__ import annotations
 
 import warnings
-from typing import Literal
+from typing import Literal, Optional
 
 import numpy as np
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from ..components import Params
 from ..registry import EFFECTS
@@ -15,11 +15,17 @@ from .base import Effect
 
 class CoulombFrictionParams(Params):
     force: PerCornerNonNeg = Field(100.0, description="friction force level F_c in N (one value, or one per corner)")
-    law: Literal["stick_slip", "tanh"] = Field(
-        "stick_slip", description="stick_slip: exact sticking up to F_c (time-stepping, default); "
-        "tanh: smooth F = −F_c·tanh(v/v_eps), creeps under loads below F_c")
+    law: Optional[Literal["stick_slip", "tanh"]] = Field(
+        None, description="stick_slip: exact sticking up to F_c (time-stepping); tanh: smooth "
+        "F = −F_c·tanh(v/v_eps), creeps under loads below F_c. Default: tanh when v_eps is given, else stick_slip")
     v_eps: PerCornerPos = Field(0.01, description="tanh law only: regularisation velocity in m/s "
                                 "(96 % of F_c at 2·v_eps)")
+
+    @model_validator(mode="after")
+    def _law(self):
+        if self.law is None:
+            self.law = "tanh" if "v_eps" in self.model_fields_set else "stick_slip"
+        return self
 
 
 @EFFECTS.register("coulomb_friction")
@@ -28,7 +34,8 @@ class CoulombFriction(Effect):
 
     Force law: ideal Coulomb friction, ``F = −F_c·sgn(v)`` for travel rate ``v ≠ 0`` and any
     ``|F| ≤ F_c`` that keeps ``v = 0`` (sticking); ``F_c`` in N (the thesis's ``F``: 1000 N on its 250 kg
-    SDOF rig).  Positive F pushes the body up.  Two discretisations (``law``):
+    SDOF rig).  Positive F pushes the body up.  Two discretisations (``law``; when it is not given, giving
+    ``v_eps`` selects ``tanh``, as the diagnose workflow's fitted models do, otherwise ``stick_slip``):
 
     - ``stick_slip`` (default), time-stepping in the manner of Moreau: each physics step applies the force
       that would bring the travel rate to zero by the end of the step, projected onto ``[−F_c, F_c]``::
@@ -67,28 +74,30 @@ class CoulombFriction(Effect):
 
     def reset(self):
         self.Fc = corner_array(self, "force")
-        self.tanh = self.p.law == "tanh"
+        laws = self.p.law if isinstance(self.p.law, list) else [self.p.law] * self.ctx.n_cars
+        self.tanh = np.array([lw == "tanh" for lw in laws]).reshape(-1, 1)  # per car
         self.m_r = np.broadcast_to(reduced_mass(self.ctx), self.Fc.shape).copy()
+        self.v_eps = corner_array(self, "v_eps")
         dt = self.ctx.dt
-        if self.tanh:
-            self.v_eps = corner_array(self, "v_eps")
-            gain = self.Fc / self.v_eps * dt / self.m_r
-            if np.any(gain > 1.0):
-                vmin = float(np.max(self.Fc * dt / self.m_r))
-                warnings.warn(f"coulomb_friction: v_eps is small for dt={dt:g} s (F_c/v_eps·dt/m_red = "
-                              f"{float(np.max(gain)):.2g} > 1): the friction force will chatter near zero travel "
-                              f"rate; use v_eps >= {vmin:.2g} m/s or a smaller sim.dt", stacklevel=2)
+        gain = np.where(self.tanh, self.Fc / self.v_eps * dt / self.m_r, 0.0)
+        if np.any(gain > 1.0):
+            vmin = float(np.max(self.Fc * dt / self.m_r))
+            warnings.warn(f"coulomb_friction: v_eps is small for dt={dt:g} s (F_c/v_eps·dt/m_red = "
+                          f"{float(np.max(gain)):.2g} > 1): the friction force will chatter near zero travel "
+                          f"rate; use v_eps >= {vmin:.2g} m/s or a smaller sim.dt", stacklevel=2)
         self.v_prev = None
         self.F = np.zeros_like(self.Fc)
 
     def force(self, s, v, t, dt):
-        if self.tanh:
-            self.F = -self.Fc * np.tanh(v / self.v_eps)
-            return self.F
         v = np.asarray(v, dtype=float)
+        F_tanh = -self.Fc * np.tanh(v / self.v_eps)
+        if self.tanh.all():
+            self.F = F_tanh
+            return self.F
         a_other = np.zeros_like(v) if self.v_prev is None else (v - self.v_prev) / dt - self.F / self.m_r
         self.v_prev = v.copy()
-        self.F = np.clip(-self.m_r * (v / dt + a_other), -self.Fc, self.Fc)
+        F_stick = np.clip(-self.m_r * (v / dt + a_other), -self.Fc, self.Fc)
+        self.F = np.where(self.tanh, F_tanh, F_stick)
         return self.F
 
     def signals(self):
