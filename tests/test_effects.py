@@ -480,3 +480,39 @@ def test_damping_varying_as_a_sine_follows_the_reference():
     check(compare(ts, out))
     nominal = QuarterCarRef(road=road_fn(rp)).simulate(ts.t.values)
     assert nrmse(ts.travel.values, nominal["travel"]) > 0.03  # the variation is visible
+
+
+# ------------------------------------------------------------------------------------------------------
+# wiring on multi-corner models
+def test_per_corner_parameters_and_corner_selection_on_the_half_car():
+    """Half car: quadratic damping with one C_v per corner on both corners, a bump stop on the rear only.
+    The logged effect force of each corner equals the force laws evaluated on that corner's logged travel."""
+    sc = parse_scenario({
+        "vehicle": {"model": "half_car", "effects": [
+            {"type": "quadratic_damping", "params": {"c_v": [500.0, 1500.0]}},
+            {"type": "bump_stop", "corners": ["rear"], "params": {"gap": 0.02, "stiffness": 50000.0,
+                                                                    "damping": 500.0}}]},
+        "road": {"type": "sine", "params": {"amplitude": 0.04, "frequency": 1.5, "fade_in": 0.2}},
+        "sim": {"duration": 2.0, "dt": 5e-4, "control_dt": 1e-3, "log_dt": 1e-3}})
+    ts = Simulation([sc]).run()[0].ts
+    s_f, v_f = ts.travel_front.values, ts.travel_rate_front.values
+    s_r, v_r = ts.travel_rear.values, ts.travel_rate_rear.values
+    assert np.max(np.abs(s_f)) > 0.03 and np.max(np.abs(s_r)) > 0.03  # both beyond the gap
+    np.testing.assert_allclose(ts.effect_force_front.values, -500.0 * v_f * np.abs(v_f), rtol=1e-9, atol=1e-9)
+
+    def stop(s, v):
+        if s < -0.02:
+            return max(0.0, 50000.0 * (-0.02 - s) - 500.0 * v)
+        if s > 0.02:
+            return min(0.0, -50000.0 * (s - 0.02) - 500.0 * v)
+        return 0.0
+
+    expect_r = -1500.0 * v_r * np.abs(v_r) + np.array([stop(a, b) for a, b in zip(s_r, v_r)])
+    np.testing.assert_allclose(ts.effect_force_rear.values, expect_r, rtol=1e-9, atol=1e-9)
+
+
+def test_tire_effect_on_a_model_without_tire_is_a_scenario_error():
+    sc = parse_scenario({"vehicle": {"model": "sdof", "effects": [{"type": "tire_liftoff"}]},
+                         "road": {"type": "flat"}, "sim": {"duration": 0.1}})
+    with pytest.raises(ScenarioError, match="tire"):
+        Simulation([sc])
