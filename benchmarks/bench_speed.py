@@ -99,6 +99,20 @@ def scipy_closed_loop(controller, duration, control_dt, rtol, atol, method="RK45
     return out
 
 
+def timed_step(ctrl, acc):
+    """Wrap ctrl.step to add its CPU time to acc[0]."""
+    inner = ctrl.step
+
+    def step(t, y):
+        c = time.process_time()
+        out = inner(t, y)
+        acc[0] += time.process_time() - c
+        return out
+
+    ctrl.step = step
+    return ctrl
+
+
 def nrmse(a, ref):
     return float(np.sqrt(np.mean((a - ref) ** 2)) / np.sqrt(np.mean(ref ** 2)))
 
@@ -124,6 +138,11 @@ def part1_single():
     c1 = time.process_time()
     res = sim.run()[0]
     c2 = time.process_time()
+    # the same run again with the controller timed (a separate run, so the timing adds no overhead above)
+    t_ctrl_ours = [0.0]
+    sim2 = Simulation([sc])
+    timed_step(sim2.controller, t_ctrl_ours)
+    sim2.run()
     ts = res.ts
     ours = np.column_stack([ts["body_z"].to_numpy(), ts["travel"].to_numpy(), ts["actuator_force"].to_numpy()])
     ctrl_cls, ctrl_p, cctx = type(sim.controller), sim.controller.p, sim.cctx
@@ -134,6 +153,8 @@ def part1_single():
     c3 = time.process_time()
     plain = scipy_closed_loop(fresh(), DURATION, 0.001, rtol=1e-6, atol=1e-9)
     c4 = time.process_time()
+    t_ctrl_plain = [0.0]
+    scipy_closed_loop(timed_step(fresh(), t_ctrl_plain), DURATION, 0.001, rtol=1e-6, atol=1e-9)
     ref = scipy_closed_loop(fresh(), DURATION, 0.001, rtol=1e-10, atol=1e-13, method="DOP853")
     n = min(len(ours), len(ref))
     err_ours = [nrmse(ours[:n, j], ref[:n, j]) for j in range(3)]
@@ -141,6 +162,7 @@ def part1_single():
     t_ours, t_build, t_plain = c2 - c1, c1 - c0, c4 - c3
     stops = float(np.mean(np.abs(ref[:, 1]) > 0.03))
     return dict(t_ours=t_ours, t_build=t_build, t_plain=t_plain, err_ours=err_ours, err_plain=err_plain,
+                t_ctrl_ours=t_ctrl_ours[0], t_ctrl_plain=t_ctrl_plain[0],
                 stops=stops, rtf_single=DURATION / t_ours, rtf_single_e2e=DURATION / (t_ours + t_build),
                 metrics=res.metrics)
 
@@ -181,6 +203,8 @@ def part2_batch(n_cars=256, duration=2.0):
             return out
 
         R.Result.from_logger = timed_from
+        t_ctrl = [0.0]
+        timed_step(sim.controller, t_ctrl)
         res = sim.run()
         c2 = time.process_time()
     finally:
@@ -202,7 +226,7 @@ def part2_batch(n_cars=256, duration=2.0):
     c = time.process_time()
     mujoco.mj_step(me, de, nstep=k2)
     raw_ens = (time.process_time() - c) / (k2 * n_cars)
-    return dict(n_cars=n_cars, duration=duration, t_build=c1 - c0, t_loop=t_loop, t_results=t_res[0],
+    return dict(n_cars=n_cars, duration=duration, t_build=c1 - c0, t_loop=t_loop, t_results=t_res[0], t_ctrl=t_ctrl[0],
                 t_metrics=t_metrics[0], per_car_step=per_car_step, raw_single=raw_single, raw_ens=raw_ens,
                 rtf_batch=n_cars * duration / t_loop, rtf_batch_e2e=n_cars * duration / (c2 - c0),
                 rtf_raw_ens=0.0005 / raw_ens, rtf_raw_single=0.0005 / raw_single)
@@ -231,9 +255,14 @@ def part4_dask(duration=4.0, ens=4):
         eng = DaskEngine(None, nw)
         try:
             run_batch(tmp / "sweep.yaml", out=tmp / f"warm{nw}", engine=eng, resume=False)  # imports on workers
+            w0 = eng.client.run(time.process_time)
+            c = time.process_time()
             t = time.perf_counter()
             rep = run_batch(tmp / "sweep.yaml", out=tmp / f"o{nw}", engine=eng, resume=False)
             out[nw] = time.perf_counter() - t
+            w1 = eng.client.run(time.process_time)
+            out[f"cpu_workers{nw}"] = sum(w1[k] - w0[k] for k in w0)
+            out[f"cpu_driver{nw}"] = time.process_time() - c
             assert rep.counts == {"ok": 32}, rep.counts
         finally:
             eng.close()
@@ -254,14 +283,20 @@ def main():
     print(f"   {'scipy solve_ivp RK45 1e-6':28s}{p1['t_plain']:9.3f}{100 * e[0]:13.3f}%{100 * e[1]:8.3f}%{100 * e[2]:8.3f}%")
     print(f"   speed ratio scipy / suspension_sim: {p1['t_plain'] / p1['t_ours']:.1f}x  (target >= 20x)")
     print(f"   model build (not in the ratio): {p1['t_build']:.3f} s")
+    print(f"   the controller's own CPU time (the same Python object in both): {p1['t_ctrl_ours']:.3f} s here, "
+          f"{p1['t_ctrl_plain']:.3f} s in scipy;")
+    rest_o, rest_p = p1['t_ours'] - p1['t_ctrl_ours'], p1['t_plain'] - p1['t_ctrl_plain']
+    print(f"   without it: loop + MuJoCo {rest_o:.3f} s vs solve_ivp {rest_p:.3f} s: ratio {rest_p / rest_o:.1f}x")
 
     p2 = part2_batch(n_cars=64 if QUICK else 256)
     print(f"\n2. batch: {p2['n_cars']} cars in one MuJoCo model, same closed loop, {p2['duration']:g} s each")
     print(f"   loop cost per car-step             {1e6 * p2['per_car_step']:8.3f} us")
     print(f"   raw mj_step, quarter_car.xml alone {1e6 * p2['raw_single']:8.3f} us   ratio {p2['per_car_step'] / p2['raw_single']:.2f}x")
     print(f"   raw mj_step, the same ensemble     {1e6 * p2['raw_ens']:8.3f} us   ratio {p2['per_car_step'] / p2['raw_ens']:.2f}x  (target <= 2x)")
-    print(f"   build {p2['t_build']:.2f} s, loop {p2['t_loop']:.2f} s, results+metrics {p2['t_results']:.2f} s "
-          f"(metrics {p2['t_metrics']:.2f} s)")
+    print(f"   build {p2['t_build']:.2f} s, loop {p2['t_loop']:.2f} s (of which the controller {p2['t_ctrl']:.2f} s), "
+          f"results+metrics {p2['t_results']:.2f} s (metrics {p2['t_metrics']:.2f} s)")
+    wo = (p2['t_loop'] - p2['t_ctrl']) / (p2['n_cars'] * p2['duration'] / 0.0005)
+    print(f"   loop without the controller: {1e6 * wo:.3f} us per car-step, ratio to raw ensemble {wo / p2['raw_ens']:.2f}x")
 
     print("\n3. real-time factors (simulated s per CPU s, one core)")
     print(f"   single run: loop {p1['rtf_single']:8.1f}x   end to end {p1['rtf_single_e2e']:8.1f}x   (target >= 100x)")
@@ -272,6 +307,12 @@ def main():
         p4 = part4_dask(duration=2.0 if QUICK else 4.0)
         print(f"\n4. Dask local cluster, {p4['runs']} runs x {p4['duration']:g} s, ensembles of 4 (wall time)")
         print(f"   1 worker {p4[1]:.2f} s, 2 workers {p4[2]:.2f} s: scaling {p4['ratio']:.2f}x  (target >= 1.8x)")
+        for nw in (1, 2):
+            print(f"   {nw} worker(s): worker CPU {p4[f'cpu_workers{nw}']:.2f} s, driver CPU {p4[f'cpu_driver{nw}']:.2f} s, "
+                  f"wall {p4[nw]:.2f} s (CPU/wall {p4[f'cpu_workers{nw}'] / p4[nw]:.2f} cores used)")
+        w, dr = p4["cpu_workers1"], p4["cpu_driver1"]
+        print(f"   scaling on 2 free cores estimated from CPU times (driver serial, worker work split): "
+              f"{(dr + w) / (dr + w / 2):.2f}x")
     print(f"\nload average at end {load_avg():.1f}")
 
 
