@@ -51,7 +51,8 @@ def silverbox(out: Path, real: Path = REAL, log=print) -> dict:
         prob = Problem(rec, skip=50, omega_max=Problem.omega_max(fitted))
         sim = prob.simulate(fitted.P)
         res["rmse_mV"][f"{name}_after"] = 1e3 * prob.rmse(sim, 0, len(rec))["pos"]
-        lin_spec = load_model({"model": "sdof", "params": {k: v for k, v in lin.items() if not k.startswith("force")},
+        lin_spec = load_model({"model": "sdof", "params": {k: v for k, v in lin.items()
+                                                           if k in ("sprung_mass", "spring_stiffness", "damping")},
                                "inputs": {"force_offset": lin.get("force_offset", 0.0)}})
         sim0 = prob.simulate(lin_spec.P)
         res["rmse_mV"][f"{name}_before"] = 1e3 * prob.rmse(sim0, 0, len(rec))["pos"]

@@ -228,6 +228,17 @@ def test_asymmetric_damping_named_alone_damper(tmp_path):
     assert _shrink(rep) >= 0.8
 
 
+def test_two_hidden_effects_both_named_damper(tmp_path):
+    d = truth.simulate_truth("damper", 6, 1000, {"coulomb_friction": {"force": 120.0}, "cubic_stiffness": {"k3": 2e6}},
+                             params={"damping": 1500.0, "spring_stiffness": 0.0}, seed=43, road_rms=0.03, noise=0.02,
+                             outputs=["force"])
+    model = {"model": "damper", "params": {"spring_stiffness": 0.0, "damping": "free"}}
+    rep = diagnose(_record("damper", d, ["force"]), model, tmp_path, confirm=False, plots=False)
+    assert sorted(e["name"] for e in rep["effects"]) == ["coulomb_friction", "cubic_stiffness"]
+    assert _shrink(rep) >= 0.8
+
+
+@pytest.mark.slow
 def test_two_hidden_effects_both_named(tmp_path):
     d = truth.simulate_truth("sdof", 8, 500, {"coulomb_friction": {"force": 150.0}, "cubic_stiffness": {"k3": 4e7}},
                              seed=51, road_rms=0.0, force_rms=600.0, noise=0.02, outputs=["pos", "acc"])

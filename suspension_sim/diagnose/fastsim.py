@@ -32,10 +32,12 @@ import numpy as np
 G = 9.81
 # parameter slots
 MS, MU, K, C, KT, CT, GAIN, OFFS, CF, VEPS, CV, CCOMP, CREB, GAP, KSTOP, K3, LIFT, DELAY, TAU, BWF, BWX, BLK, BLB = range(23)
-NP = 23
+DX0 = 23  # 23..26: corrections added to the initial state (z_s, ż_s, z_u, ż_u), fitted as nuisance parameters
+NP = 27
 SLOTS = ["sprung_mass", "unsprung_mass", "spring_stiffness", "damping", "tire_stiffness", "tire_damping",
          "force_gain", "force_offset", "cf_force", "cf_v_eps", "qd_c_v", "as_c_comp", "as_c_reb", "bs_gap",
-         "bs_stiffness", "cs_k3", "tl_on", "act_delay", "act_tau", "bw_force", "bw_x_y", "bl_stiffness", "bl_play"]
+         "bs_stiffness", "cs_k3", "tl_on", "act_delay", "act_tau", "bw_force", "bw_x_y", "bl_stiffness", "bl_play",
+         "dx0_zs", "dx0_vs", "dx0_zu", "dx0_vu"]
 KINDS = {"quarter_car": 0, "sdof": 1, "damper": 2}
 CHANNELS = {
     "quarter_car": ["body_acc", "wheel_acc", "susp_travel", "body_pos", "wheel_pos", "tire_force"],
@@ -151,7 +153,8 @@ def simulate_one(kind, P, road, roaddot, force, dt, nsub, x0, out):
     hi = 1.0 / nsub  # sub-step in sample-index units
     Fs = (P[MS] + P[MU]) * G
     x = np.empty(4)
-    x[:] = x0
+    for k in range(4):
+        x[k] = x0[k] + P[DX0 + k]
     xk = np.empty(4)
     w = 0.0
     yb = 0.0

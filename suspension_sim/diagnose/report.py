@@ -76,13 +76,16 @@ def write_mjcf(D: Diagnosis, path: Path) -> str | None:
     if D.record.kind == "damper":
         return "a damper element has no vehicle MJCF"
     try:
-        from ..config import VehicleCfg
-        from ..plant import Plant
+        from ..components import validate_params
+        from ..registry import VEHICLES
 
         blk = vehicle_block(D)
-        vc = VehicleCfg(**blk["vehicle"])
-        plant = Plant([vc], dt=min(5e-4, D.record.dt))
-        path.write_text(plant.car_roots[0].to_xml_string())
+        vcls = VEHICLES.get(blk["vehicle"]["model"])
+        root = vcls.build(validate_params(vcls.Params, blk["vehicle"]["params"], "vehicle.params"),
+                          dt=min(5e-4, D.record.dt))
+        path.write_text("<!-- fitted by suspension-sim diagnose: masses, springs and dampers of the fitted model; the\n"
+                        "     added effects act through the effect_* motors (suspension_sim.effects), see model.fitted.yaml -->\n"
+                        + root.to_xml_string())
         return None
     except Exception as err:  # the MJCF of some fits (e.g. a zero spring: no static equilibrium) cannot be built
         return f"{type(err).__name__}: {str(err).splitlines()[0]}"
@@ -137,7 +140,10 @@ def mujoco_confirm(D: Diagnosis, out: Path, max_seconds: float = 120.0) -> dict:
     ts = res.ts
     colmap = {"body_acc": "body_acc", "wheel_acc": "wheel_acc", "susp_travel": "travel", "body_pos": "body_z",
               "wheel_pos": "wheel_z", "tire_force": "tire_force", "pos": "body_z", "vel": "body_vel", "acc": "body_acc"}
-    fast = D.prob.simulate(P)
+    # like for like: MuJoCo starts at rest at equilibrium, so the fast simulator does too here
+    P0 = P.copy()
+    P0[fs.DX0:fs.DX0 + 4] = 0.0
+    fast = fs.run(rec.kind, P0, D.prob.inputs, D.prob.dt, D.prob.nsub, np.zeros(4))[:, D.prob.col]
     cmp = {}
     m = min(len(ts), n)
     for i, c in enumerate(D.prob.channels):

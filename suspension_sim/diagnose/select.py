@@ -81,7 +81,7 @@ class Diagnosis:
     def sims(self, fitres: FitResult):
         """(train/whole-record simulation, test simulation) of a fit."""
         s = self.prob.simulate(fitres.P)
-        st = self.test_prob.simulate(fitres.P) if self.test_prob is not None else s
+        st = self.test_prob.simulate(_for_test(fitres.P)) if self.test_prob is not None else s
         return s, st
 
     def nrmse(self, fitres: FitResult) -> dict:
@@ -93,6 +93,13 @@ class Diagnosis:
         s, st = self.sims(fitres)
         tp = self.test_prob or self.prob
         return {"train": self.prob.rmse(s, *self.train), "test": tp.rmse(st, *self.test)}
+
+
+def _for_test(P):
+    """Parameters for a separate held-out record: its own initial state, no training-record corrections."""
+    P = P.copy()
+    P[fs.DX0:fs.DX0 + 4] = 0.0
+    return P
 
 
 def _scales(prob: Problem, P: np.ndarray, b: int) -> Scales:
@@ -173,18 +180,34 @@ def init_sdof(rec: Record, spec: ModelSpec) -> None:
                                    for n in cols if n not in free)
     A = np.stack([cols[n] for n in names] + [-np.ones_like(u)], axis=1)
     sol, *_ = np.linalg.lstsq(A, rhs, rcond=None)
+    slot_of = {"sprung_mass": fs.MS, "damping": fs.C, "spring_stiffness": fs.K}
+    P_eq = spec.P.copy()
     for n, val in zip(names, sol):
-        slot = {"sprung_mass": fs.MS, "damping": fs.C, "spring_stiffness": fs.K}[n]
-        val = abs(val) if n == "sprung_mass" else max(val, 0.0)
-        spec.P[slot] = val
-        free[n].init = val
-        free[n].scale = max(abs(val), 1e-12)
+        P_eq[slot_of[n]] = abs(val) if n == "sprung_mass" else max(val, 0.0)
+    if "force_offset" in free:
+        P_eq[fs.OFFS] = float(sol[-1])
+    # keep the equation-error values only if they simulate better than the given/default starting values
+    m = min(len(x), 20000)
+    chk = Problem(rec.slice(0, m), omega_max=max(Problem.omega_max(spec), _omega(P_eq, spec.kind)))
+    err = [np.mean(list(chk.nrmse(chk.simulate(PP), 0, m).values())) for PP in (spec.P, P_eq)]
+    if not (err[1] < err[0]) or P_eq[fs.MS] <= 0:
+        return
+    for n in names:
+        slot = slot_of[n]
+        spec.P[slot] = P_eq[slot]
+        free[n].init = float(P_eq[slot])
+        if P_eq[slot] > 0:
+            free[n].scale = float(P_eq[slot])
         if n == "sprung_mass":
-            free[n].lo = 1e-6 * val
+            free[n].lo = 1e-6 * P_eq[slot]
     if "force_offset" in free:
         free["force_offset"].init = float(sol[-1])
         free["force_offset"].scale = max(float(np.std(u)) * 0.01, 1e-12)
         spec.P[fs.OFFS] = float(sol[-1])
+
+
+def _omega(P, kind):
+    return float(np.sqrt(max(P[fs.K], 0) / P[fs.MS])) if P[fs.MS] > 0 else 0.0
 
 
 class Selector:
@@ -217,6 +240,21 @@ class Selector:
         if not self.prob.has_force:
             self.spec.free = [f for f in self.spec.free if not f.name.startswith("force_")]
             self.spec.P[fs.OFFS] = 0.0
+        # nuisance: corrections to the measured initial state of lightly damped/integrating models
+        from .model import FreeParam
+
+        o = rec.outputs
+        if rec.kind == "sdof":
+            sp = float(np.std(o["pos"])) if "pos" in o else 0.0
+            if sp > 0:
+                vs = sp / rec.dt / 50
+                self.spec.free += [FreeParam("initial.pos", fs.DX0, 0.0, -np.inf, np.inf, 0.01 * sp),
+                                   FreeParam("initial.vel", fs.DX0 + 1, 0.0, -np.inf, np.inf, vs)]
+        elif rec.kind == "quarter_car" and "body_pos" in o and "wheel_pos" in o:
+            for k, ch in ((0, "body_pos"), (2, "wheel_pos")):
+                sp = float(np.std(o[ch]))
+                self.spec.free += [FreeParam(f"initial.{ch}", fs.DX0 + k, 0.0, -np.inf, np.inf, 0.01 * sp),
+                                   FreeParam(f"initial.{ch}_rate", fs.DX0 + k + 1, 0.0, -np.inf, np.inf, sp / rec.dt / 50)]
         self.user_floors = floors or {}
         self.cand_filter = candidates
         self.max_effects = max_effects
@@ -240,7 +278,7 @@ class Selector:
 
     def _test_errors(self, P):
         tp = self.test_prob or self.prob
-        sim = tp.simulate(P)
+        sim = tp.simulate(_for_test(P) if self.test_prob is not None else P)
         a, b = self.test
         a = max(a, tp.skip)
         e = (sim[a:b] - tp.Y[a:b]) / tp.scale
