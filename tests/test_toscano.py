@@ -148,3 +148,16 @@ def test_varying_stiffness_is_tracked(varying):
 
 def _rms(x):
     return float(np.sqrt(np.mean(np.square(x))))
+
+
+def test_varying_stiffness_effect_keeps_the_static_load():
+    """The time-varying stiffness of the paper acts about the equilibrium: F = −Δk(t)·s (no static force)."""
+    from suspension_sim.effects.base import EffectContext
+    from suspension_sim.effects.varying_stiffness import VaryingStiffness, VaryingStiffnessParams
+
+    z = np.zeros((1, 1))
+    ctx = EffectContext(1, ["single"], 5e-4, z, z, z, z, z, z)
+    e = VaryingStiffness(stack_params([VaryingStiffnessParams(amplitude=5000.0, frequency=3 / (2 * np.pi))], 1), ctx)
+    for t, s in ((0.3, 0.02), (1.1, -0.01), (2.0, 0.0)):
+        F = e.force(np.full((1, 1), s), z, t, 5e-4)[0, 0]
+        assert F == pytest.approx(-5000.0 * np.sin(3 * t) * s, rel=1e-12, abs=1e-12)
