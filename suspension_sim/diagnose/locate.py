@@ -5,7 +5,7 @@
 - :func:`spectra`: Welch PSD of the residual against the (white) noise-floor level, the frequency band where
   the residual rises more than 10 dB above it, and the coherence of the residual with each input;
 - :func:`force_map`: the residual *force* across the suspension by inverse dynamics where an acceleration
-  is measured (quarter car: ``m_s·z̈_s`` measured minus the model's suspension force at the measured travel
+  is measured (travel and travel rate from the measured travel, zero-phase low-passed) (quarter car: ``m_s·z̈_s`` measured minus the model's suspension force at the measured travel
   and travel rate; SDOF: ``m·ẍ`` − model force; for the SDOF a measured position is differentiated twice
   when no acceleration is measured; damper: measured − model force), averaged in bins of travel × travel
   rate, with the standard error of each bin's mean from the acceleration noise floor.
@@ -49,7 +49,12 @@ def spectra(resid, inputs: dict, channels, floors, fs_hz: float) -> dict:
             if np.std(u) == 0:
                 continue
             fc, cc = coherence(u, resid[:, i], fs=fs_hz, nperseg=nper)
-            k = int(np.argmax(cc[1:])) + 1
+            # where the input has power (above 1 % of its PSD peak): elsewhere coherence is meaningless
+            _, pu = welch(u, fs=fs_hz, nperseg=nper)
+            ok = (fc > 0) & (pu > 0.01 * pu.max())
+            if not ok.any():
+                continue
+            k = int(np.flatnonzero(ok)[np.argmax(cc[ok])])
             coh[name] = {"max": float(cc[k]), "at_hz": float(fc[k]), "mean_below_50hz": float(np.mean(cc[(fc > 0) & (fc < 50)]))}
         out[c] = {"f": f, "psd": p, "floor_psd": level, "band_above_floor_hz": band, "coherence": coh,
                   "peak_hz": float(f[1 + int(np.argmax(p[1:]))])}
@@ -90,7 +95,19 @@ def force_map(prob, P: np.ndarray, floors: dict, a: int, b: int, nbins: int = 12
         m = 0.0
         sig_acc = floors.get("force", {}).get("value", 0.0)
         note = "measured force − model force"
-    v = np.gradient(s, dt) if kind != "damper" else prob.inputs["roaddot"][a:b]
+    if kind != "damper":
+        # measured travel is noisy: differentiating it would put noise into the bin variable (errors in
+        # variables: the map would show spurious slopes and steps), so travel and rate come from a zero-phase
+        # low-pass (4th-order Butterworth at min(40 Hz, 0.2·fs), above the vehicle modes)
+        from scipy.signal import butter, filtfilt
+
+        fc = min(40.0, 0.2 * rec.fs)
+        bb, aa = butter(4, fc / (rec.fs / 2))
+        if len(s) > 30:
+            s = filtfilt(bb, aa, s)
+        v = np.gradient(s, dt)
+    else:
+        v = prob.inputs["roaddot"][a:b]
     Fsusp = np.array([fs.susp_force(P, si, vi, 0.0, 0.0) for si, vi in zip(s, v)]) if len(s) < 5000 else \
         _susp_force_vec(P, s, v)
     if kind == "damper":
