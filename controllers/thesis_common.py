@@ -57,7 +57,7 @@ class FilterBank:
         self.x = np.einsum("ij,nkj->nki", self.Ad, self.x) + np.einsum("ij,nkj->nki", self.Bd, u)
 
 
-def rls_update(theta, P, phi, target, q: float, trace_max: float):
+def rls_update(theta, P, phi, target, q, trace_max: float):
     """One step of recursive least squares with covariance addition (Vogel & Edgar, thesis Eq. 4.56),
     vectorised over cars; matrix form with a shared covariance (thesis Ch. 7).
 
@@ -71,8 +71,9 @@ def rls_update(theta, P, phi, target, q: float, trace_max: float):
     theta += np.einsum("np,nm->npm", Pphi / denom[:, None], err)
     P -= np.einsum("ni,nj->nij", Pphi, Pphi) / denom[:, None, None]
     p = P.shape[1]
-    add = (np.trace(P, axis1=1, axis2=2) + q * p) < trace_max
-    P += np.where(add[:, None, None], q * np.eye(p)[None], 0.0)
+    Q = np.diag(np.broadcast_to(np.asarray(q, dtype=float), (p,)))  # q: scalar or one value per parameter
+    add = (np.trace(P, axis1=1, axis2=2) + np.trace(Q)) < trace_max
+    P += np.where(add[:, None, None], Q[None], 0.0)
     P[:] = 0.5 * (P + np.transpose(P, (0, 2, 1)))
     return err
 
@@ -168,12 +169,16 @@ class DiscreteMRAC:
     relative-degree-two plant, so its control rings at the Nyquist frequency; κ < 1 removes the
     cancellation and keeps zero steady-state error (the estimator's identity holds for any input).
 
+    ``p0_bias``/``q_bias`` give the bias parameter (the operating-point force) its own initial covariance
+    and covariance addition, so that it can track load changes quickly while the model parameters adapt
+    slowly (less drift when the excitation is poor, e.g. a manoeuvre on a flat road).
+
     The regressor is scaled internally by the nominal magnitudes of Θ (parameters of order 1), so one
     scalar ``p0`` and ``q`` serve all entries.
     """
 
     def __init__(self, theta0, m, D, am, n, p0, q, trace_max, beta_inv_range=(0.2, 5.0), u_max=None,
-                 bias_scale=1000.0, kappa=1.0):
+                 bias_scale=1000.0, kappa=1.0, p0_bias=None, q_bias=None):
         self.kappa = kappa
         self.m, self.D, self.am, self.n = m, D, np.asarray(am, dtype=float), n
         theta0 = np.asarray(theta0, dtype=float)
@@ -183,8 +188,13 @@ class DiscreteMRAC:
         sc[sc == 0] = bias_scale
         self.sc = sc
         self.theta = np.tile((theta0 / sc[:, None])[None], (n, 1, 1))
-        self.P = np.tile(p0 * np.eye(self.p)[None], (n, 1, 1))
-        self.q, self.trace_max = q, trace_max
+        ib = self.p - m - 1  # row of the bias (regressor −1)
+        d0 = np.full(self.p, float(p0))
+        d0[ib] = p0 if p0_bias is None else p0_bias
+        self.P = np.tile(np.diag(d0)[None], (n, 1, 1))
+        self.q = np.full(self.p, float(q))
+        self.q[ib] = q if q_bias is None else q_bias
+        self.trace_max = trace_max
         self.bi = slice(self.p - m, self.p)
         self.bi_nom = np.diag(theta0[self.bi]) / sc[self.bi]
         self.bi_range = beta_inv_range

@@ -55,12 +55,12 @@ class MRACDiscreteParams(Params):
     ref_damping: float = Field(6000.0, gt=0, description="C_m skyhook (N·s/m)")
     delay_steps: int = Field(5, ge=0, description="loop delay in control steps (thesis 0.05 s = 5 × 0.01 s); "
                              "must match the sensors' delay")
-    p0: float = Field(1.0, gt=0, description="initial covariance (scaled parameters)")
-    q: float = Field(0.01, ge=0, description="covariance addition per step (scaled)")
-    trace_max: float = Field(50.0, gt=0, description="trace bound of P (scaled)")
+    p0: float = Field(0.01, gt=0, description="initial covariance (scaled parameters)")
+    q: float = Field(1e-4, ge=0, description="covariance addition per step (scaled)")
+    trace_max: float = Field(0.5, gt=0, description="trace bound of P (scaled)")
     u_max: float = Field(20000.0, gt=0, description="actuator force limit (N)")
-    kappa: float = Field(1.0, gt=0, le=1, description="control-increment weighting κ (1 = the thesis's d-step-ahead "
-                         "law; see thesis_common.DiscreteMRAC)")
+    kappa: float = Field(0.1, gt=0, le=1, description="control-increment weighting κ (1 = the thesis's d-step-ahead "
+                         "law, which rings at the Nyquist frequency here; see thesis_common.DiscreteMRAC)")
     road_feedforward: bool = Field(True, description="U_T = u + K*·w + C0·ẇ (see module doc)")
 
 

@@ -1,0 +1,158 @@
+"""Thesis Ch. 7: discrete MIMO MRAC of the half car (bounce + pitch, two actuators), Vallurupalli 1996.
+
+Plant (Eqs. 7.1–7.6, model ``half_car`` with ``damping_front/rear: 0`` and the ``quadratic_damping``
+(C = 2500 N·s²/m²), ``bump_stop`` (K_es = 80 kN/m, D/2 = 0.125 m) and ``coulomb_friction`` effects):
+M Z̈ + F(Z, Ż, t) = G U + H W + S(t), Z = [x_b, θ, x_l1, x_t1], S(t) carrying the static loads and the
+pitch moment M_s·a·h of the acceleration/braking manoeuvre (``vehicle.maneuver: accel_brake``).
+
+Outputs Y = [x_b, θ] (``body_pos``; θ positive = nose down, ISO 8855 — the thesis's G matrix
+[[1, 1], [d1, −d2], …] uses nose-up positive), inputs U = [u_front, u_rear] (positive pushes the body up).
+
+Design, following the thesis's steps:
+
+1. linearised model about the operating point: here the rigid body on the two suspensions,
+   M_g q̈ + TᵀC0T q̇ + TᵀK0T q = Tᵀ U_T with q = [x_b, θ], T = [[1, −a], [1, b]] (corner heights
+   x_b − aθ, x_b + bθ), K0 the spring stiffness and C0 a describing-function linear damping of the
+   velocity-squared damper (``lin_damping``).  The thesis linearises the full 8-state model; a DARMA
+   model with second-order polynomials per output (n = 2, as in the thesis) is exact for this 4-state
+   body model, and the wheel hop (≈ 8 Hz) is left to the estimator as unmodelled dynamics — our choice;
+2. zero-order-hold discretisation at the control step (``scipy.signal.cont2discrete``; thesis 0.01 s);
+3. interactor: with β0 = CΓ nonsingular (both actuators act on bounce and pitch at the first sample)
+   the interactor matrix is q·I, so the delay structure is diagonal, D = 1 + ``delay_steps``;
+4. predictor a_m(q⁻¹)Y[k+D] = α(q⁻¹)Y[k] + β(q⁻¹)U[k] + c with matrix polynomials (matrix Diophantine
+   F A + q⁻ᴰ G = a_m I) and control law U[k] = Θᵀφ[k] (:class:`thesis_common.DiscreteMRAC`);
+5. matrix least squares with a shared covariance P* (one P for both columns of Θ) and covariance
+   addition; the sign/magnitude constraint on (β0)⁻¹ projects its diagonal into
+   [``beta_inv_range``] × its nominal value (sign kept);
+6. ``kappa`` < 1 weights control increments (see :class:`thesis_common.DiscreteMRAC`) — our addition
+   against the sampling-zero ringing of the pure d-step-ahead law.
+
+The constant c/β0 in Θ is the operating-point force (the thesis's static and manoeuvre loads S(t)): it
+is what removes the braking nose dive.  U_T = u + K0·w + C0·ẇ per corner (nominal road force,
+``road_feedforward``), so the actuators get u = U_T − K0·w − C0·ẇ.
+
+Reference ("two-tier skyhook", Eq. 7.7): the same half car with springs K_m, no passive damper, skyhook
+dampers C_m on the absolute velocity of both body attachment points and dampers D_m between each wheel and
+the ground (parallel to the tire); thesis values K_m = 17 kN/m, C_m = D_m = 9 kN·s/m, I_m = 1125 kg·m²,
+tire 100 kN/m; masses as the plant's.  The reference is driven by the measured road under both wheels and
+has no manoeuvre input: it stays level under braking, so the target pitch is the road-induced pitch only.
+
+Signals: ``ref_z``/``ref_pitch`` (target for the current reading), ``err.0/1``, ``ref_acc`` (reference
+heave acceleration), ``theta.k`` (Θ unscaled, flattened), ``bias.0/1`` (the operating-point forces c
+mapped to actuator forces, N).
+"""
+from __future__ import annotations
+
+import numpy as np
+from pydantic import Field
+
+from suspension_sim.components import Params
+from suspension_sim.registry import CONTROLLERS
+
+from .base import Controller
+from .thesis_common import DiscreteMRAC, FilterBank, _f, am_poly, darma, predictor, theta_from_predictor
+
+
+class MIMOParams(Params):
+    sprung_mass: float = Field(500.0, gt=0, description="nominal M_s (kg)")
+    pitch_inertia: float = Field(1125.0, gt=0, description="nominal I (kg·m²)")
+    unsprung_mass: float = Field(45.0, gt=0, description="nominal unsprung mass per axle, reference model (kg)")
+    a: float = Field(1.5, gt=0, description="d1, c.g. to front axle (m)")
+    b: float = Field(1.5, gt=0, description="d2, c.g. to rear axle (m)")
+    stiffness: float = Field(17000.0, gt=0, description="K0 per axle (N/m)")
+    lin_damping: float = Field(500.0, ge=0, description="C0: describing-function linear damping per axle (N·s/m)")
+    tire_stiffness: float = Field(100000.0, gt=0, description="reference tire stiffness (N/m)")
+    ref_stiffness: float = Field(17000.0, gt=0, description="K_m (N/m)")
+    ref_skyhook: float = Field(9000.0, ge=0, description="C_m skyhook dampers at the body attachment points (N·s/m)")
+    ref_wheel_damping: float = Field(9000.0, ge=0, description="D_m wheel-to-ground dampers (N·s/m)")
+    ref_freq: float = Field(2.0, gt=0, description="a_m(q⁻¹): natural frequency of the desired output dynamics (Hz)")
+    ref_zeta: float = Field(1.0, gt=0, description="a_m(q⁻¹): damping ratio")
+    delay_steps: int = Field(0, ge=0, description="loop delay in control steps (sensor delay)")
+    p0: float = Field(1e-4, gt=0, description="initial covariance (scaled)")
+    q: float = Field(1e-6, ge=0, description="covariance addition (scaled)")
+    p0_bias: float = Field(1.0, gt=0, description="initial covariance of the bias (operating-point force) parameter")
+    q_bias: float = Field(0.1, ge=0, description="covariance addition of the bias parameter")
+    trace_max: float = Field(5.0, gt=0, description="trace bound")
+    kappa: float = Field(0.2, gt=0, le=1, description="control-increment weighting (1 = thesis)")
+    beta_inv_range: tuple[float, float] = Field((0.2, 5.0), description="allowed (β0)⁻¹ diagonal / nominal")
+    road_feedforward: bool = Field(True, description="U_T = u + K0·w + C0·ẇ (see module doc)")
+
+
+@CONTROLLERS.register("thesis_mimo_mrac")
+class MIMOMRAC(Controller):
+    """Thesis Ch. 7 discrete MIMO MRAC for the half car: matrix DARMA, interactor, predictor, matrix least squares."""
+
+    Params = MIMOParams
+    requires = ("body_pos", "road", "road_vel")
+
+    def reset(self):
+        p, n, h = self.p, self.ctx.n_cars, self.ctx.control_dt
+        if self.ctx.n_corners != 2 or self.ctx.vehicle_model != "half_car":
+            from suspension_sim.errors import ScenarioError
+
+            raise ScenarioError("thesis_mimo_mrac needs the half_car model", field="controller.type")
+        M, I, a, b = _f(p.sprung_mass), _f(p.pitch_inertia), _f(p.a), _f(p.b)
+        K, C = _f(p.stiffness), _f(p.lin_damping)
+        T = np.array([[1.0, -a], [1.0, b]])
+        Mg = np.diag([M, I])
+        Mi = np.linalg.inv(Mg)
+        Ac = np.block([[np.zeros((2, 2)), np.eye(2)], [-Mi @ T.T @ (K * T), -Mi @ T.T @ (C * T)]])
+        Bc = np.vstack([np.zeros((2, 2)), Mi @ T.T])
+        Cc = np.hstack([np.eye(2), np.zeros((2, 2))])
+        A, B = darma(Ac, Bc, Cc, h)
+        self.am = am_poly(2 * np.pi * _f(p.ref_freq), _f(p.ref_zeta), h)
+        D, alpha, beta = predictor(A, B, self.am, int(_f(p.delay_steps)))
+        self.D = D
+        th0 = theta_from_predictor(alpha, beta)
+        self.core = DiscreteMRAC(th0, 2, D, self.am, n, _f(p.p0), _f(p.q), _f(p.trace_max),
+                                 beta_inv_range=tuple(np.asarray(p.beta_inv_range, dtype=float).reshape(-1)[:2]),
+                                 kappa=_f(p.kappa), p0_bias=_f(p.p0_bias), q_bias=_f(p.q_bias))
+        self.K0, self.C0 = K, C
+        # reference: two-tier skyhook half car; q_r = [x_b, θ, x_wf, x_wr], input [w_f, w_r]
+        mu = _f(p.unsprung_mass)
+        Km, Cm, Dm, kt = _f(p.ref_stiffness), _f(p.ref_skyhook), _f(p.ref_wheel_damping), _f(p.tire_stiffness)
+        Mr = np.diag([M, I, mu, mu])
+        # corner heights of the body: T q; travel_i = (T q)_i − x_wi
+        S = np.array([[1.0, -a, -1.0, 0.0], [1.0, b, 0.0, -1.0]])  # travels
+        Tb = np.array([[1.0, -a, 0.0, 0.0], [1.0, b, 0.0, 0.0]])  # absolute corner heights (skyhook)
+        Tw = np.array([[0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])  # wheel heights
+        Kr = Km * S.T @ S + kt * Tw.T @ Tw
+        Cr = Cm * Tb.T @ Tb + Dm * Tw.T @ Tw
+        Mri = np.linalg.inv(Mr)
+        Ar = np.block([[np.zeros((4, 4)), np.eye(4)], [-Mri @ Kr, -Mri @ Cr]])
+        # inputs [w_f, w_r, ẇ_f, ẇ_r]: tire springs and wheel-to-ground dampers act on (x_w − w)
+        Bw = np.zeros((4, 4))
+        Bw[2, 0] = Bw[3, 1] = kt
+        Bw[2, 2] = Bw[3, 3] = Dm
+        Br = np.vstack([np.zeros((4, 4)), Mri @ Bw])
+        self.Ar, self.Br = Ar, Br
+        self.ref = FilterBank(Ar, Br, np.eye(8), np.zeros((8, 4)), h, n, 1)
+        self.targets = np.zeros((n, max(D + 1, 3), 2))
+        self._sig = {}
+
+    def step(self, t, y):
+        yb = y["body_pos"][:, :2]
+        w = y["road"]
+        wd = y["road_vel"]
+        win = np.concatenate([w, wd], axis=1)
+        r = self.ref.output()[:, 0, :]
+        self.ref.update(win[:, None, :])
+        rn = self.ref.output()[:, 0, :]
+        self.targets = np.roll(self.targets, 1, axis=1)
+        self.targets[:, 0] = rn[:, :2]
+        am = self.am
+        ybar = am[0] * self.targets[:, 0] + am[1] * self.targets[:, 1] + am[2] * self.targets[:, 2]
+        UT = self.core.step(yb, ybar)
+        ff = self.K0 * w + self.C0 * wd if self.p.road_feedforward else 0.0
+        u = UT - ff
+        tgt = self.targets[:, self.D]
+        acc = np.einsum("ij,nj->ni", self.Ar[4:], r) + np.einsum("ij,nj->ni", self.Br[4:], win)
+        th = self.core.theta_unscaled
+        # bias row (−1 regressor): U contribution −θ_bias
+        bias = -th[:, self.core.p - 3, :]
+        self._sig = {"ref_z": r[:, 0], "ref_pitch": r[:, 1], "ref_acc": acc[:, 0], "err": yb - tgt,
+                     "bias": bias, "theta": th.reshape(th.shape[0], -1)}
+        return u
+
+    def signals(self):
+        return self._sig
