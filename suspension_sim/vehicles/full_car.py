@@ -25,10 +25,11 @@ sources:
 - tires 200 kN/m (a 205/55 R16 passenger tire at ~2.2 bar: 180–250 kN/m), wheel hop ≈ 11.8 Hz front.
 - track 1.55 m front and rear (a 4.8 m × 1.8 m sedan), c.g. height 0.55 m.
 - anti-roll bars 25000 N/m front and 10000 N/m rear (of differential travel): roll stiffness
-  k·t²/2 per axle from the springs + k_arb·t² from the bars = 84 kN·m/rad front, 47 kN·m/rad rear, a roll
-  gradient m_s·g·h/(K_φ − m_s·g·h) ≈ 3.5 °/g (passenger cars: 3–7 °/g, Gillespie Ch. 9) with the manoeuvre
-  arm h = 0.5 m above the roll axis; a front roll-stiffness share of 64 % (understeering).  Set
-  ``arb_front``/``arb_rear`` to 0 for no bars (the roll gradient then is ≈ 11 °/g).
+  k·t²/2 per axle from the springs + k_arb·t² from the bars = 84 kN·m/rad front, 47 kN·m/rad rear; in series
+  with the tires (k_t·t²/2 = 240 kN·m/rad per axle) 62 + 40 = 102 kN·m/rad, a front share of 61 %
+  (understeering) and a roll gradient m_s·g·h/K_φ ≈ 3.9 °/g with the manoeuvre arm h = 0.5 m above the roll
+  axis (passenger cars: 3–7 °/g, Gillespie Ch. 9; the model has no gravity moment about the roll axis, the
+  c.g. lies on it).  Set ``arb_front``/``arb_rear`` to 0 for no bars (the roll gradient then is ≈ 9 °/g).
 
 Positions are from the static equilibrium (spring lengths carry the static loads, computed for the actual
 parameters).  The tendon coefficients are the small-angle kinematics; the test checks them against MuJoCo's
