@@ -23,7 +23,7 @@ yaw rate r, plus the yaw angle ψ and lateral position Y), with axle forces satu
 F_y = μF_z·tanh(C_α·α/(μF_z)), α_f = δ − (v_y + l_f r)/u, α_r = −(v_y − l_r r)/u.  Default data: the
 mid-size sedan of Rajamani, *Vehicle Dynamics and Control* (2012): m = 1573 kg, I_z = 2873 kg·m²,
 l_f = 1.10 m, l_r = 1.58 m, cornering stiffness 80000 N/rad per axle — the same car as the ``full_car``
-defaults.
+defaults (values as commonly quoted from that book, not re-checked against its printed table).
 
 Driver: single-point preview (MacAdam's idea, simplest form): the lateral position predicted ``preview``
 seconds ahead by straight-line extrapolation, Y + T_p·(u·ψ + v_y), is compared with the path at

@@ -12,7 +12,8 @@ sources:
 
 - mass and c.g. position: the mid-size sedan of R. Rajamani, *Vehicle Dynamics and Control* (2nd ed.,
   Springer 2012), used there for the lateral (bicycle) model: total mass 1573 kg, l_f = 1.10 m,
-  l_r = 1.58 m (wheelbase 2.68 m), yaw inertia 2873 kg·m².  Unsprung masses chosen 40 kg (front, with
+  l_r = 1.58 m (wheelbase 2.68 m), yaw inertia 2873 kg·m² (as commonly quoted from that book; not re-checked
+  against the printed table when this was written).  Unsprung masses chosen 40 kg (front, with
   brakes and hub carrier) and 35 kg (rear) per wheel, so the sprung mass is 1573 − 150 = 1423 kg → 1413 kg
   rounded down for a little non-suspended mass (drive shafts, half of the links).
 - body inertias (not in Rajamani's table for this car, chosen): roll I_xx = 500 kg·m², pitch
