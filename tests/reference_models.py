@@ -36,6 +36,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
 
 G = 9.81
 
@@ -234,4 +235,104 @@ class QuarterCarRef:
             out["stuck"] = mode[0].astype(bool)
         if self.extra_states:
             out["extra"] = Y[4:]
+        return out
+
+
+@dataclass
+class SdofRef:
+    """Single mass ``M`` on a spring ``K`` / damper ``C`` over a base moved by ``road`` (the thesis's SDOF rig),
+    with pluggable suspension forces ``f(z, zdot, t)`` (``z`` = mass − base from equilibrium, positive pushes
+    the mass up) and optional exact Coulomb friction ``coulomb_force`` (stick/slip with events).  Returns
+    ``body_z, body_vel, body_acc, travel, travel_rate, road`` like :class:`QuarterCarRef`."""
+
+    sprung_mass: float = 250.0
+    spring_stiffness: float = 5000.0
+    damping: float = 250.0
+    road: Callable[[float], float] = lambda t: 0.0
+    suspension_forces: list = field(default_factory=list)
+    coulomb_force: float = 0.0
+    g: float = G
+    h: float = 1e-5  # step of the central differences giving the base velocity (10·h for the acceleration)
+
+    def _base(self, t):
+        h, w = self.h, self.road
+        H = 10 * h
+        return w(t), (w(t + h) - w(t - h)) / (2 * h), (w(t + H) - 2 * w(t) + w(t - H)) / H ** 2
+
+    def other_force(self, t, y):
+        """All forces on the mass but friction and gravity."""
+        w, wd, _ = self._base(t)
+        z, zd = y[0] - w, y[1] - wd
+        f = self.spring_stiffness * (self.sprung_mass * self.g / self.spring_stiffness - z) - self.damping * zd
+        for fn in self.suspension_forces:
+            f += fn(z, zd, t)
+        return f
+
+    def stick_force(self, t, y):
+        """Friction force that keeps the mass moving with the base."""
+        return self.sprung_mass * (self._base(t)[2] + self.g) - self.other_force(t, y)
+
+    def rhs(self, t, y, stuck=False, slip=0.0):
+        if stuck:
+            _, wd, wdd = self._base(t)
+            return [wd, wdd]
+        return [y[1], (self.other_force(t, y) - self.coulomb_force * slip) / self.sprung_mass - self.g]
+
+    def simulate(self, t_eval, rtol: float = 1e-10, atol: float = 1e-12, method: str = "DOP853") -> dict:
+        t_eval = np.asarray(t_eval, dtype=float)
+        T, Fc = float(t_eval[-1]), self.coulomb_force
+        y, t = np.zeros(2), 0.0
+        Y = np.zeros((2, len(t_eval)))
+        modes = np.zeros((2, len(t_eval)))
+        stuck = Fc > 0 and abs(self.stick_force(0.0, y)) <= Fc
+        slip = 0.0 if (stuck or Fc == 0) else -float(np.sign(self.stick_force(0.0, y)))
+        while t < T - 1e-12:
+            st, sl = stuck, slip
+            if st:  # the mass rides on the base: no ODE; find when the friction can no longer hold it
+                z0 = y[0] - self.road(t)
+                hold = lambda tt: Fc - abs(self.stick_force(tt, [self.road(tt) + z0, self._base(tt)[1]]))
+                grid = np.append(np.arange(t, T, 5e-4), T)
+                t1 = T
+                for a, b in zip(grid[:-1], grid[1:]):
+                    if hold(b) < 0:
+                        t1 = brentq(hold, a, b, xtol=1e-13)
+                        break
+                sel = (t_eval >= t) & ((t_eval < t1) | (t1 >= T - 1e-12))
+                Y[0, sel] = [self.road(tt) + z0 for tt in t_eval[sel]]
+                Y[1, sel] = [self._base(tt)[1] for tt in t_eval[sel]]
+                modes[:, sel] = np.array([[1.0], [0.0]])
+                t, y = t1, np.array([self.road(t1) + z0, self._base(t1)[1]])
+                if t1 >= T - 1e-12:
+                    break
+                stuck, slip = False, -float(np.sign(self.stick_force(t, y)))
+                continue
+            if Fc <= 0:
+                events = None
+            else:
+                def ev(tt, yy):
+                    return sl * (yy[1] - self._base(tt)[1])
+                ev.terminal, ev.direction = True, -1
+                events = ev
+            sol = solve_ivp(lambda tt, yy: self.rhs(tt, yy, st, sl), (t, T), y, method=method, rtol=rtol, atol=atol,
+                            dense_output=True, events=events)
+            if not sol.success:
+                raise RuntimeError(sol.message)
+            t1 = sol.t[-1]
+            sel = (t_eval >= t) & ((t_eval < t1) | (t1 >= T - 1e-12))
+            if sel.any():
+                Y[:, sel] = sol.sol(t_eval[sel])
+                modes[:, sel] = np.array([[0.0], [sl]])
+            t, y = t1, sol.y[:, -1].copy()
+            if sol.status != 1:
+                break
+            y[1] = self._base(t)[1]
+            Fs = self.stick_force(t, y)
+            stuck, slip = (True, 0.0) if abs(Fs) < Fc else (False, -float(np.sign(Fs)))
+        base = np.array([self._base(t) for t in t_eval]).T
+        acc = np.array([self.rhs(t, Y[:, i], bool(modes[0, i]), modes[1, i])[1] for i, t in enumerate(t_eval)])
+        out = {"t": t_eval, "body_z": Y[0], "body_vel": Y[1], "body_acc": acc, "road": base[0],
+               "travel": Y[0] - base[0], "travel_rate": Y[1] - base[1]}
+        if Fc > 0:
+            out["stuck"] = modes[0].astype(bool)
+            out["slip"] = modes[1]
         return out
