@@ -140,3 +140,22 @@ def test_estimate_moves_in_the_compensating_direction(fig4, fig5):
     assert th5[0] == pytest.approx(RHO * THETA)
     assert th5[-1] > 1.03 * th5[0]
     assert fig5["nonadaptive"]["ctrl.theta_hat"].iloc[-1] == pytest.approx(RHO * THETA)
+
+
+def test_scalar_and_array_evaluations_agree():
+    """The controller evaluates the derived law with python floats for small ensembles and with numpy arrays
+    for large ones: both compiled forms must give the same numbers."""
+    from controllers.lin_kanellakopoulos import _PARAM, _STATE, derivation
+
+    d = derivation()
+    rng = np.random.default_rng(3)
+    state = {"x1": 0.03, "x2": 0.4, "x3": -0.01, "x4": 1.2, "x5": 2e6, "xb": 0.005, "P0": 2.0, "P1": 300.0,
+             "P2": 2e4, "P3": 1e6, "th": 1.4e10, "S": 5.0, "Q": 1e-6}
+    par = {"Mb": 290.0, "Mus": 59.0, "Ka": 16812.0, "Ca": 1000.0, "Kt": 190000.0, "A": 3.35e-4, "beta": 1.0,
+           "gam": 1.545e9, "rho": 1e-7, "c1": 200.0, "c2": 200.0, "c3": 200.0, "c4": 200.0, "b3": 0.01,
+           "b4": 0.01, "eps": 1.5, "eps1": 1.5, "Gam": 40.0}
+    vals = [state[k] * (1 + 0.1 * rng.standard_normal()) for k in _STATE] + [par[k] for k in _PARAM]
+    a = np.array(d["f_math"](*vals), dtype=float)
+    b = np.array([float(np.asarray(v).flat[0]) for v in d["f_numpy"](*[np.full((2, 1), v) for v in vals])])
+    assert np.all(np.isfinite(a))
+    assert np.allclose(a, b, rtol=1e-9, atol=1e-12)
