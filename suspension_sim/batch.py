@@ -514,21 +514,51 @@ class LocalEngine:
         import multiprocessing as mp
         from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
+        from collections import deque
+        from concurrent.futures.process import BrokenProcessPool
+
         ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else None
-        with ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx) as ex:
-            pending, nxt = {}, 0
-            limit = 2 * self.workers
-            while nxt < len(tasks) or pending:
-                while nxt < len(tasks) and len(pending) < limit:
-                    pending[ex.submit(fn, tasks[nxt])] = nxt
-                    nxt += 1
+
+        def fresh():
+            return ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)
+
+        ex = fresh()
+        try:
+            pending: dict = {}
+            queue, suspects = deque(range(len(tasks))), []
+            while queue or pending:
+                while queue and len(pending) < 2 * self.workers:
+                    i = queue.popleft()
+                    pending[ex.submit(fn, tasks[i])] = i
                 done, _ = wait(pending, return_when=FIRST_COMPLETED)
+                broken = False
                 for f in done:
                     i = pending.pop(f)
                     try:
                         on_result(i, f.result())
-                    except Exception as e:  # noqa: BLE001 - a crashed worker
+                    except BrokenProcessPool:  # a worker died (e.g. a segfault in native code)
+                        suspects.append(i)
+                        broken = True
+                    except Exception as e:  # noqa: BLE001
                         on_fail(i, e)
+                if broken:  # every task of the broken pool is a suspect; go on with a fresh pool
+                    suspects.extend(pending.values())
+                    pending.clear()
+                    ex.shutdown(wait=False, cancel_futures=True)
+                    ex = fresh()
+            for i in suspects:  # one at a time: a task that breaks a pool alone is the culprit
+                try:
+                    on_result(i, ex.submit(fn, tasks[i]).result())
+                except BrokenProcessPool as e:
+                    on_fail(i, e)
+                    ex.shutdown(wait=False, cancel_futures=True)
+                    ex = fresh()
+                except Exception as e:  # noqa: BLE001
+                    on_fail(i, e)
+        except BaseException:  # Ctrl-C: drop queued tasks instead of waiting for them (results so far are kept)
+            ex.shutdown(wait=False, cancel_futures=True)
+            raise
+        ex.shutdown(wait=True)
 
     def close(self):
         pass
@@ -646,7 +676,7 @@ class Store:
             return
         import pandas as pd
 
-        df = pd.DataFrame(self._buf)
+        df = _arrow_safe(pd.DataFrame(self._buf))
         tmp = self.parts / f".part-{self._k:06d}.tmp"
         df.to_parquet(tmp, index=False)
         tmp.rename(self.parts / f"part-{self._k:06d}.parquet")
@@ -670,12 +700,23 @@ class Store:
         metrics = sorted(c for c in df.columns if c.startswith("metric."))
         rest = [c for c in df.columns if c not in front and c not in metrics]
         df = df[front + rest + metrics]
+        df = _arrow_safe(df)
         tmp = self.out / ".summary.tmp"
         df.to_parquet(tmp, index=False)
         tmp.rename(self.out / "summary.parquet")
         for p in self.parts.glob("part-*.parquet"):
             p.unlink()
         return df
+
+
+def _arrow_safe(df):
+    """Columns mixing strings and numbers (e.g. a grid over [0.5, "auto"]) as strings, so Parquet accepts them."""
+    for c in df.columns:
+        if df[c].dtype == object:
+            kinds = {type(v) for v in df[c] if v is not None and not (isinstance(v, float) and math.isnan(v))}
+            if len(kinds) > 1 and not kinds <= {int, float, bool}:
+                df[c] = df[c].map(lambda v: v if v is None or isinstance(v, str) else json.dumps(v))
+    return df
 
 
 # ------------------------------------------------------------------------------------------------------

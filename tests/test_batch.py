@@ -194,3 +194,31 @@ def test_cli_batch(tmp_path, repo):
     assert "8 runs" in res.output and "ok 8" in res.output
     df = pd.read_parquet(tmp_path / "o" / "summary.parquet")
     assert len(df) == 8 and {"seed", "status", "error", "wall_time_s", "vehicle.params.damping"} <= set(df.columns)
+
+
+class CrashParams(Params):
+    crash: float = 0.0
+
+
+@CONTROLLERS.register("_test_crash")
+class CrashController(Controller):
+    """Test-only: kills its worker process (as a segfault in native code would)."""
+
+    Params = CrashParams
+
+    def step(self, t, y):
+        if np.any(self.p.crash > 0):
+            import os
+
+            os._exit(1)
+        return self.zeros()
+
+
+def test_a_crashing_worker_does_not_stop_the_sweep(tmp_path):
+    path = write_sweep(tmp_path, grid={"controller.params.crash": [0, 1]}, lists={"sim.seed": [1, 2, 3]},
+                       set={"controller.type": "_test_crash", "controller.params": {"crash": 0}}, ensemble_size=1)
+    df = run_batch(path, out=tmp_path / "c", workers=2).summary
+    assert len(df) == 6
+    crashed = df["controller.params.crash"] == 1
+    assert (df.loc[crashed, "status"] == "error").all() and df.loc[crashed, "error"].str.contains("worker").all()
+    assert (df.loc[~crashed, "status"] == "ok").all()
