@@ -238,6 +238,10 @@ def plot_run(results, out_dir) -> list[Path]:
                                 "Body and wheel displacement from equilibrium (m)"))
         written.append(_signals(results, out_dir, "act.", "actuator_states.png", "Actuator internal states"))
         written.append(_signals(results, out_dir, "ctrl.", "controller_signals.png", "Controller signals"))
+    # random-road runs: gain factors and PSDs against the reference model of adaptive controllers
+    from .plots_frequency import plot_frequency
+
+    written.extend(plot_frequency(results, out_dir))
     return [p for p in written if p is not None]
 
 
