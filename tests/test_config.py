@@ -42,7 +42,14 @@ def _with(path: str, value):
     return raw
 
 
-DELETE = object()
+class _Delete:
+    """Marks a key to remove (a stable repr keeps test ids equal across pytest-xdist workers)."""
+
+    def __repr__(self):
+        return "DELETE"
+
+
+DELETE = _Delete()
 
 # (path, value, field the message must name, text it must contain)
 BAD = [
