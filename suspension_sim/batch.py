@@ -53,7 +53,7 @@ import time
 import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable, Literal, Optional, Union
+from typing import Any, Callable, Literal, Optional, Union
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
@@ -686,7 +686,6 @@ class Store:
 
     def consolidate(self, plan: Plan):
         """Write ``summary.parquet``: one row per run of the sweep (latest result), in run order."""
-        import pandas as pd
 
         self.flush()
         df = self.previous()
