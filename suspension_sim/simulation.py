@@ -142,7 +142,9 @@ class Simulation:
             ctx = EffectContext(n_cars=n, corners=[self.geom.corner_names[c] for c in sel], dt=self.dt,
                                 static_suspension_force=P.static_susp[:, sel], static_tire_force=P.static_tire[:, sel],
                                 spring_stiffness=ks[:, sel], damping=cs[:, sel], tire_stiffness=kt[:, sel],
-                                tire_damping=ct[:, sel])
+                                tire_damping=ct[:, sel],
+                                effective_mass=self._tendon_effective_mass(
+                                    (P.tire_t if ecls.target == "tire" else P.susp_t)[:, sel]))
             self.effects.append((ecls(stack_params(plist, len(sel)), ctx), np.asarray(sel)))
 
         # actuator --------------------------------------------------------------------------------------
@@ -214,6 +216,33 @@ class Simulation:
         self.controller = ccls(cp, self.cctx)
 
     # ------------------------------------------------------------------------------------------------
+    def _tendon_effective_mass(self, tendons: np.ndarray) -> np.ndarray:
+        """Effective mass 1/(J·M⁻¹·Jᵀ) (kg) along each fixed tendon of ``tendons`` (n_cars, k) at the initial pose,
+        road plates held; inf for a tendon that moves no free dof.  For effects that need it (stick-slip)."""
+        m = self.plant.model
+        if not hasattr(self, "_Mfull"):
+            d = mujoco.MjData(m)
+            mujoco.mj_forward(m, d)
+            self._Mfull = np.zeros((m.nv, m.nv))
+            mujoco.mj_fullM(m, d, self._Mfull)
+            free = set(self.plant.free_v.tolist())
+            self._car_dofs = {}
+            for v in range(m.nv):
+                name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, int(m.dof_jntid[v])) or ""
+                if v in free:
+                    self._car_dofs.setdefault(name.split("/")[0], []).append(v)
+        out = np.full(tendons.shape, np.inf)
+        for i in range(tendons.shape[0]):
+            dofs = np.asarray(self._car_dofs.get(f"car{i}", []), dtype=int)
+            for k, t in enumerate(tendons[i]):
+                J = np.zeros(m.nv)
+                for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t]):
+                    J[m.jnt_dofadr[m.wrap_objid[w]]] += m.wrap_prm[w]
+                Jf = J[dofs]
+                if dofs.size and np.any(Jf):
+                    out[i, k] = 1.0 / float(Jf @ np.linalg.solve(self._Mfull[np.ix_(dofs, dofs)], Jf))
+        return out
+
     def _road_chunk(self, k0: int, k1: int):
         """Road height and rate under each wheel for physics steps k0..k1-1: arrays (n, k1-k0, nc)."""
         n, nc = self.plant.n, self.plant.nc

@@ -557,3 +557,33 @@ def test_thesis_fail_safe_sdof_rig_all_effects(amp, freq):
         mask[max(i - 1, 0):i + 3] = False
     assert mask.mean() > 0.97
     check(compare(ts, out, ("body_acc",), mask=mask))
+
+
+def test_effect_context_carries_the_effective_mass_along_each_tendon():
+    """Stick-slip needs the mass seen along the suspension: 1/(1/m_s + 1/m_u) for the quarter car; for the
+    thesis's two-DOF rig (suspensions in series) M_p along the primary and 1/(1/M_s + 1/M_p) along the
+    secondary, which static loads cannot tell."""
+    def ctx_mass(model, corners="all", params=None):
+        sc = parse_scenario({"vehicle": {"model": model, "params": params or {},
+                                         "effects": [{"type": "coulomb_friction", "corners": corners}]},
+                             "road": {"type": "flat"}, "sim": {"duration": 0.01}})
+        return Simulation([sc]).effects[0][0].ctx.effective_mass
+
+    np.testing.assert_allclose(ctx_mass("quarter_car", params={"sprung_mass": 300.0, "unsprung_mass": 40.0}),
+                               [[1 / (1 / 300 + 1 / 40)]], rtol=1e-9)
+    np.testing.assert_allclose(ctx_mass("two_dof", ["secondary", "primary"]),
+                               [[1 / (1 / 85.0 + 1 / 4.5), 4.5]], rtol=1e-9)
+
+
+def test_friction_on_the_two_dof_primary_sticks():
+    """100 N of friction on the 4.5 kg primary of the two-DOF rig under a 2 mm base motion: the primary
+    suspension stays stuck (µm) while the secondary works."""
+    sc = parse_scenario({
+        "vehicle": {"model": "two_dof", "effects": [{"type": "coulomb_friction", "corners": ["primary"],
+                                                     "params": {"force": 100.0}}]},
+        "road": {"type": "sine", "params": {"amplitude": 0.002, "frequency": 1.0, "fade_in": 0.3}},
+        "sim": {"duration": 2.0}})
+    ts = Simulation([sc]).run()[0].ts
+    assert np.max(np.abs(ts.travel_primary.values)) < 1e-5
+    assert np.max(np.abs(ts.travel_secondary.values)) > 5e-4
+    assert np.max(np.abs(ts.effect_force_primary.values)) > 20.0  # the friction carries the load changes

@@ -44,9 +44,12 @@ def _flat(v) -> bool:
 
 
 def reduced_mass(ctx) -> np.ndarray:
-    """Effective mass (kg) of the relative body–wheel motion of each corner, ``1/(1/m_s + 1/m_u)``, with the
-    corner's sprung and unsprung shares estimated from the static loads (exact for the quarter car; an
-    estimate for models with pitch/roll, used only for step-size checks)."""
+    """Effective mass (kg) along each corner's suspension: ``ctx.effective_mass`` (1/(J·M⁻¹·Jᵀ), computed by
+    the simulation from the MuJoCo mass matrix) when given, else ``1/(1/m_s + 1/m_u)`` with the corner's
+    sprung and unsprung shares estimated from the static loads (exact for the quarter car, within ~2 % for the
+    half and full cars, wrong for suspensions in series such as the two-DOF rig)."""
+    if getattr(ctx, "effective_mass", None) is not None:
+        return np.asarray(ctx.effective_mass, dtype=float)
     ms = np.asarray(ctx.static_suspension_force, dtype=float) / GRAVITY
     mt = np.asarray(ctx.static_tire_force, dtype=float) / GRAVITY
     mu = np.where(mt > ms, mt - ms, np.inf)  # no tire (SDOF rig): the base is rigid

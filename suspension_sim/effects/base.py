@@ -33,6 +33,9 @@ class EffectContext:
     damping: np.ndarray  # (n_cars, n_sel) N s/m, linear suspension damper
     tire_stiffness: np.ndarray  # (n_cars, n_sel) N/m
     tire_damping: np.ndarray  # (n_cars, n_sel) N s/m
+    # (n_cars, n_sel) kg: 1/(J M^-1 J^T) along the effect's tendon (suspension or tire), road held; None when
+    # the context is built outside a Simulation (effects then estimate it, see effects/_common.reduced_mass)
+    effective_mass: np.ndarray | None = None
 
 
 class Effect:

@@ -42,9 +42,9 @@ class CoulombFriction(Effect):
 
           F_k = clip(−m_r·(v_k/dt + a_k), −F_c, F_c),   a_k = (v_k − v_{k−1})/dt − F_{k−1}/m_r
 
-      where ``m_r = 1/(1/m_s + 1/m_u)`` is the corner's relative body–wheel mass (from the static loads;
-      exact for the quarter car, an estimate where pitch/roll couple the corners) and ``a_k`` the relative
-      acceleration from all other forces, estimated from the previous step.  The suspension sticks for good
+      where ``m_r`` is the effective mass along the suspension (``1/(J·M⁻¹·Jᵀ)`` from MuJoCo's mass matrix,
+      ``1/(1/m_s + 1/m_u)`` for the quarter car; evaluated at the initial pose and nominal masses) and
+      ``a_k`` the relative acceleration from all other forces, estimated from the previous step.  The suspension sticks for good
       under loads below F_c (no creep) and slips with exactly ±F_c otherwise.  Error is first order in dt
       at the stick/slip switches.
     - ``tanh``: ``F = −F_c·tanh(v/v_eps)``: smooth, but a stiff damper ``F_c/v_eps`` near v = 0 instead of
