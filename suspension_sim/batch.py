@@ -461,12 +461,13 @@ def _run_group(good: list, sw: Sweep) -> dict:
     out = {}
     if not good:
         return out
+    t0 = time.perf_counter()
     try:
         results, wall = _simulate([sc for _, sc in good], sw.time_limit)
     except Exception as e:  # noqa: BLE001
         if len(good) == 1:
             (run_id, values, h, seed), _ = good[0]
-            return {run_id: _row(run_id, values, h, seed, _status_of(e), _err_text(e), 0.0, {})}
+            return {run_id: _row(run_id, values, h, seed, _status_of(e), _err_text(e), time.perf_counter() - t0, {})}
         for item in good:  # one car spoiled the ensemble: re-run every car alone
             out.update(_run_group([item], sw))
         return out
