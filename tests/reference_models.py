@@ -23,6 +23,9 @@ test that uses it:
 
 Parameters may be numbers or functions of time (parameter variations).
 
+:class:`SdofRef` is the thesis's SDOF rig (one mass over a moving base) with the same pluggable forces and
+exact Coulomb friction.
+
 Example::
 
     ref = QuarterCarRef(road=lambda t: 0.01 * np.sin(2 * np.pi * 2 * t),
