@@ -1,0 +1,109 @@
+"""Thesis Ch. 3 (continuous direct MRAC, SDOF rig): load step and dirt-road model following.
+
+The scenario files use the thesis's timing (+150 kg at 20 s, removed at 40 s); the tests run the same
+files with the load step at 2 s (and a shorter dirt-road run) to stay fast."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.signal import welch
+
+from suspension_sim.config import parse_scenario, read_yaml
+from suspension_sim.simulation import Simulation
+
+G = 9.81
+
+
+def run_variants(repo, name, edit=None, variants=None):
+    raw = read_yaml(repo / "scenarios" / f"{name}.yaml")
+    if edit:
+        edit(raw)
+    sc = parse_scenario(raw)
+    out = {}
+    for vname, vsc in sc.expand():
+        if variants is None or vname in variants:
+            out[vname] = Simulation([vsc]).run()[0].ts
+    return out
+
+
+def window(ts, t0, t1, col):
+    return ts[col][(ts.t >= t0) & (ts.t < t1)].to_numpy()
+
+
+@pytest.fixture(scope="module")
+def load_step(request):
+    repo = request.config.rootpath
+
+    def edit(raw):
+        raw["vehicle"]["variations"][0]["times"] = [2.0, 14.0]
+        raw["sim"]["duration"] = 14.0
+
+    return run_variants(repo, "thesis_ch3_load_step", edit)
+
+
+def test_passive_sags_by_mg_over_k(load_step):
+    sag = -np.mean(window(load_step["passive"], 8, 14, "body_z"))
+    assert sag == pytest.approx(150 * G / 5000, rel=0.05)  # 0.294 m
+
+
+def test_mrac_returns_to_level_with_the_static_force(load_step):
+    ts = load_step["mrac"]
+    z = window(ts, 8, 14, "body_z")  # 6–12 s after the step
+    passive_sag = -np.mean(window(load_step["passive"], 8, 14, "body_z"))
+    assert abs(np.mean(z)) < 0.1 * passive_sag  # level within a few seconds (thesis: "keeps its level")
+    assert abs(np.mean(z)) < 0.03
+    force = np.mean(window(ts, 8, 14, "actuator_force"))
+    assert force == pytest.approx(150 * G, rel=0.10)  # thesis: mean upward force ≈ 1500 N
+    # before the step the actuator carries no static load and the error to the reference is small
+    assert abs(np.mean(window(ts, 0.5, 2, "actuator_force"))) < 100
+    assert np.sqrt(np.mean(window(ts, 0.5, 2, "ctrl.err") ** 2)) < 0.005
+
+
+def band_ratio(f, P, Pref, lo, hi):
+    s = (f >= lo) & (f < hi)
+    return float(np.mean(P[s]) / np.mean(Pref[s]))
+
+
+@pytest.fixture(scope="module")
+def dirt(request):
+    repo = request.config.rootpath
+
+    def edit(raw):
+        raw["sim"]["duration"] = 30.0
+
+    return run_variants(repo, "thesis_ch3_dirt", edit)
+
+
+def test_dirt_road_follows_reference_psd_better_than_passive(dirt):
+    """Near the 0.71 Hz resonance (0.5–1 Hz) and above it (1–2 Hz) the adaptive body-acceleration PSD is
+    closer to the reference model's than the passive one (Parameter variations mode II: +40 % mass,
+    −10 % stiffness and damping, unknown to the controller); from 2 to 8 Hz it lies below both the
+    passive PSD and (by ≈ 2×) the reference's — better isolation than the reference, reported in
+    docs/issue4_results.md."""
+    ts_a, ts_p = dirt["mrac"], dirt["passive"]
+    fs = 1.0 / (ts_a.t[1] - ts_a.t[0])
+    sel_a, sel_p = ts_a[ts_a.t > 8], ts_p[ts_p.t > 8]
+    f, Pref = welch(sel_a["ctrl.ref_acc"].to_numpy(), fs=fs, nperseg=8192)
+    _, Pa = welch(sel_a["body_acc"].to_numpy(), fs=fs, nperseg=8192)
+    _, Pp = welch(sel_p["body_acc"].to_numpy(), fs=fs, nperseg=8192)
+    for lo, hi in ((0.5, 1.0), (1.0, 2.0)):
+        da = abs(np.log10(band_ratio(f, Pa, Pref, lo, hi)))
+        dp = abs(np.log10(band_ratio(f, Pp, Pref, lo, hi)))
+        assert da < dp, (lo, hi, da, dp)
+    for lo, hi in ((0.5, 1.0), (1.0, 2.0), (2.0, 4.0), (4.0, 8.0)):
+        assert band_ratio(f, Pa, Pp, lo, hi) < 0.5, (lo, hi)
+    # near resonance within a factor 3 of the reference in power (the passive is ≫ 10×)
+    assert abs(np.log10(band_ratio(f, Pa, Pref, 0.5, 1.0))) < np.log10(3.0)
+
+
+def test_frequency_plots_written(dirt, tmp_path):
+    from types import SimpleNamespace
+
+    from suspension_sim.plots_frequency import frequency_pairs, plot_frequency
+
+    res = {k: SimpleNamespace(ts=v, timeseries=v) for k, v in dirt.items()}
+    pairs = frequency_pairs(res)
+    assert ("body acceleration", "body_acc", "ctrl.ref_acc", "m/s²") in pairs
+    paths = plot_frequency(res, tmp_path)
+    assert {p.name for p in paths} == {"gain_factors.png", "psd_reference.png"}
+    assert all(p.stat().st_size > 10000 for p in paths)
