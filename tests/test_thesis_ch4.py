@@ -1,0 +1,103 @@
+"""Thesis Ch. 4 (discrete MRAC with 0.05 s loop delay and RLS, nonlinear fail-safe SDOF plant).
+
+Also checks the DARMA/predictor construction the Ch. 4 and Ch. 7 controllers share against a simulated
+ZOH plant."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.signal import cont2discrete, welch
+
+from controllers.thesis_common import am_poly, darma, predictor
+from suspension_sim.config import parse_scenario, read_yaml
+from suspension_sim.simulation import Simulation
+
+G = 9.81
+
+
+def run_variants(repo, name, edit=None, variants=None):
+    raw = read_yaml(repo / "scenarios" / f"{name}.yaml")
+    if edit:
+        edit(raw)
+    sc = parse_scenario(raw)
+    return {v: Simulation([s]).run()[0].ts for v, s in sc.expand() if variants is None or v in variants}
+
+
+def window(ts, t0, t1, col):
+    return ts[col][(ts.t >= t0) & (ts.t < t1)].to_numpy()
+
+
+@pytest.mark.parametrize("d", [0, 1, 5])
+def test_predictor_is_exact_for_the_zoh_plant(d):
+    """a_m(q⁻¹)Y[k+D] = α(q⁻¹)Y[k] + β(q⁻¹)U[k] holds exactly for the sampled plant with d extra delays."""
+    M, C, K, h = 250.0, 500.0, 5000.0, 0.01
+    Ac = np.array([[0, 1], [-K / M, -C / M]])
+    Bc = np.array([[0.0], [1 / M]])
+    Cc = np.array([[1.0, 0.0]])
+    A, B = darma(Ac, Bc, Cc, h)
+    am = am_poly(np.sqrt(20.0), 24 / (2 * np.sqrt(20.0)), h)
+    D, al, be = predictor(A, B, am, d)
+    Phi, Gam, _, _, _ = cont2discrete((Ac, Bc, Cc, np.zeros((1, 1))), h)
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal(400)
+    x, y = np.zeros(2), []
+    for k in range(400):
+        y.append(x[0])
+        x = Phi @ x + Gam[:, 0] * (u[k - d] if k >= d else 0.0)
+    y = np.array(y)
+    for k in (50, 200, 300):
+        lhs = y[k + D] + am[1] * y[k + D - 1] + am[2] * y[k + D - 2]
+        rhs = sum(al[i][0, 0] * y[k - i] for i in range(2)) + sum(be[j][0, 0] * u[k - j] for j in range(len(be)))
+        assert lhs == pytest.approx(rhs, rel=1e-8, abs=1e-14)
+
+
+@pytest.fixture(scope="module")
+def load_step(request):
+    def edit(raw):
+        raw["vehicle"]["variations"][0]["times"] = [4.0, 16.0]
+        raw["sim"]["duration"] = 16.0
+
+    return run_variants(request.config.rootpath, "thesis_ch4_load_step", edit)
+
+
+def test_passive_sags_onto_the_stops(load_step):
+    """+150 kg: K·s + K_es·(s − D/2) = ΔM·g for s > D/2 → 0.144 m (thesis ≈ 15 cm), within the friction
+    dead band ±F/(K + K_es)."""
+    K, Kes, gap, F = 5000.0, 40000.0, 0.125, 1000.0
+    expected = (150 * G + Kes * gap) / (K + Kes)
+    sag = -np.mean(window(load_step["passive"], 10, 16, "body_z"))
+    assert abs(sag - expected) < F / (K + Kes)
+    assert sag > gap  # on the stops
+
+
+def test_discrete_mrac_holds_level_with_the_static_force(load_step):
+    ts = load_step["mrac"]
+    z = window(ts, 8, 16, "body_z")  # from 4 s after the step
+    assert abs(np.mean(z)) < 0.02
+    assert np.min(window(ts, 4, 16, "body_z")) > -0.125  # never reaches the stop the passive rests on
+    force = np.mean(window(ts, 8, 16, "actuator_force"))
+    assert force == pytest.approx(150 * G, rel=0.15)  # thesis: ≈ 1500 N
+    # model following: the tracking error after the initial adaptation is a fraction of the road amplitude
+    assert np.sqrt(np.mean(window(ts, 2, 4, "ctrl.err") ** 2)) < 0.02
+
+
+def test_dirt_road_without_loop_delay_follows_reference_better_than_passive(request):
+    """The Ch. 4 controller on the dirt road, without the 0.05 s loop delay: its body-acceleration PSD is
+    closer to the reference's than passive near and above resonance.  (With the thesis's delay it is not:
+    the 1000 N friction sticks the body to the rough base — see docs/issue4_results.md.)"""
+
+    def edit(raw):
+        raw["sim"]["duration"] = 24.0
+
+    out = run_variants(request.config.rootpath, "thesis_ch4_dirt", edit, variants=("passive", "mrac_no_delay"))
+    ts_a, ts_p = out["mrac_no_delay"], out["passive"]
+    fs = 1.0 / (ts_a.t[1] - ts_a.t[0])
+    sa, sp = ts_a[ts_a.t > 8], ts_p[ts_p.t > 8]
+    f, Pref = welch(sa["ctrl.ref_acc"].to_numpy(), fs=fs, nperseg=4096)
+    _, Pa = welch(sa["body_acc"].to_numpy(), fs=fs, nperseg=4096)
+    _, Pp = welch(sp["body_acc"].to_numpy(), fs=fs, nperseg=4096)
+    for lo, hi in ((0.5, 1.0), (1.0, 2.0), (2.0, 4.0)):
+        s = (f >= lo) & (f < hi)
+        da = abs(np.log10(np.mean(Pa[s]) / np.mean(Pref[s])))
+        dp = abs(np.log10(np.mean(Pp[s]) / np.mean(Pref[s])))
+        assert da < dp, (lo, hi, da, dp)
