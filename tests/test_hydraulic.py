@@ -123,3 +123,21 @@ def test_rest_stays_at_rest():
         SpoolProgram.level = None
     assert np.max(np.abs(r.ts["actuator_force"])) < 1e-9
     assert np.max(np.abs(r.ts["body_z"])) < 1e-9
+
+
+def test_ensemble_with_and_without_end_stops():
+    """Cars of one ensemble may differ in their spool stop (None = no stop)."""
+    from suspension_sim.simulation import Simulation
+
+    SpoolProgram.level = 0.02
+    try:
+        scs = []
+        for lim in (None, 0.01, 0.015):
+            sc = scenario(duration=0.2, spool_limit=lim)
+            sc.road.params = {"amplitude": 0.0, "frequency": 1.0}
+            scs.append(sc)
+        res = Simulation(scs).run()
+    finally:
+        SpoolProgram.level = None
+    peaks = [float(np.max(np.abs(r.ts["act.spool_position"]))) for r in res]
+    assert peaks[0] > 0.015 and peaks[1] == pytest.approx(0.01) and peaks[2] == pytest.approx(0.015)

@@ -98,15 +98,19 @@ class HydraulicActuator(Actuator):
         self.F = np.zeros((n, c))
         self.Fh = np.zeros((n, c))
         self.Ff = np.zeros((n, c))
+        lim = p.spool_limit  # stacked: array (n, 1); None (all cars) or a list mixing None and numbers
+        if lim is None or isinstance(lim, list):
+            lim = [np.inf if v is None else float(v) for v in (lim if isinstance(lim, list) else [None] * n)]
+        lim = np.asarray(lim, dtype=float)
+        lim = np.where(np.isnan(lim), np.inf, lim)  # stacking turns a None among numbers into NaN
+        self.xlim = np.broadcast_to(lim.reshape(n, -1), (n, c)).copy()
         self.n_sub = max(1, int(math.ceil(self.ctx.dt / float(np.min(p.max_substep)) - 1e-9)))
 
     # ---------------------------------------------------------------------------------------------
     def _spool(self, u, s):
         p = self.p
         x = u + (self.xv - u) * np.exp(-s / p.spool_time_constant)
-        if p.spool_limit is not None:
-            x = np.clip(x, -p.spool_limit, p.spool_limit)
-        return x
+        return np.clip(x, -self.xlim, self.xlim)
 
     def _deriv(self, P, xv, alpha_rate):
         p = self.p
