@@ -73,16 +73,22 @@ def stack_params(params: Iterable[BaseModel], n_corners: int) -> SimpleNamespace
     out: dict[str, Any] = {}
     if not params:
         return SimpleNamespace()
+    def is_num(v):
+        return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+    def is_corner_list(v):
+        return isinstance(v, (list, tuple)) and len(v) == n_corners and all(is_num(x) for x in v)
+
     for key in type(params[0]).model_fields:
         vals = [getattr(p, key) for p in params]
         v0 = vals[0]
-        if isinstance(v0, bool) or v0 is None or isinstance(v0, str):
-            out[key] = v0 if all(v == v0 for v in vals) else vals
-        elif isinstance(v0, (int, float)):
+        if all(is_num(v) for v in vals):
             out[key] = np.asarray(vals, dtype=float).reshape(-1, 1)
-        elif isinstance(v0, (list, tuple)) and v0 and all(isinstance(x, (int, float)) for x in v0) and len(v0) == n_corners:
-            out[key] = np.asarray(vals, dtype=float).reshape(len(vals), n_corners)
+        elif all(is_num(v) or is_corner_list(v) for v in vals):
+            # per-corner lists, possibly mixed with scalars (one value for every corner) across the cars
+            out[key] = np.asarray([[float(v)] * n_corners if is_num(v) else list(v) for v in vals], dtype=float)
         else:
+            # flags, strings, None, tables: one value if all cars agree, else the list of per-car values
             out[key] = v0 if all(v == v0 for v in vals) else vals
     return SimpleNamespace(**out)
 

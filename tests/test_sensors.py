@@ -76,3 +76,4 @@ def test_controller_sees_declared_sensors_only():
 def test_missing_sensor_is_a_scenario_error():
     with pytest.raises(ss.ScenarioError, match="needs sensor"):
         parse_scenario({"road": {"type": "flat"}, "controller": {"type": "skyhook"}})
+
