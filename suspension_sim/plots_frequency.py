@@ -122,6 +122,7 @@ def plot_frequency(results, out_dir, t_skip: float | None = None, fmax: float = 
         axes = fig.subplots(len(pairs), 1, squeeze=False)[:, 0]
         for ax, (label, ch, ref, unit) in zip(axes, pairs):
             ref_done = False
+            shown: list[np.ndarray] = []
             for i, (k, (ts, road)) in enumerate(runs.items()):
                 if ch not in ts.columns:
                     continue
@@ -129,19 +130,20 @@ def plot_frequency(results, out_dir, t_skip: float | None = None, fmax: float = 
                 u = _input_for(ch, ts, road)
                 if kind == "gain":
                     f, H = gain_factor(u, ts[ch].to_numpy(), fs)
-                    ax.loglog(f[1:], H[1:], lw=1.0, label=k)
                 else:
-                    f, P = psd(ts[ch].to_numpy(), fs)
-                    ax.loglog(f[1:], P[1:], lw=1.0, label=k)
+                    f, H = psd(ts[ch].to_numpy(), fs)
+                ax.loglog(f[1:], H[1:], lw=1.0, label=k)
+                shown.append(H[(f >= 0.1) & (f <= fmax)])
                 if ref is not None and ref in ts.columns and not ref_done:
-                    if kind == "gain":
-                        f, H = gain_factor(u, ts[ref].to_numpy(), fs)
-                        ax.loglog(f[1:], H[1:], "k--", lw=1.2, label="reference model")
-                    else:
-                        f, P = psd(ts[ref].to_numpy(), fs)
-                        ax.loglog(f[1:], P[1:], "k--", lw=1.2, label="reference model")
+                    f, H = gain_factor(u, ts[ref].to_numpy(), fs) if kind == "gain" else psd(ts[ref].to_numpy(), fs)
+                    ax.loglog(f[1:], H[1:], "k--", lw=1.2, label="reference model")
+                    shown.append(H[(f >= 0.1) & (f <= fmax)])
                     ref_done = True
             ax.set_xlim(0.1, fmax)
+            vals = np.concatenate(shown) if shown else np.array([])
+            vals = vals[np.isfinite(vals) & (vals > 0)]
+            if vals.size:
+                ax.set_ylim(0.5 * np.percentile(vals, 0.5), 2.0 * vals.max())
             ax.grid(True, which="both", alpha=0.3)
             if kind == "gain":
                 ax.set_ylabel("gain factor (–)" if ch != "pitch" else "gain (rad/m)")
