@@ -6,7 +6,8 @@ each run overlaid with the reference model's response logged by the adaptive con
 :func:`frequency_pairs` finds the (response, reference) channel pairs a run has; :func:`gain_factor` is the
 H1 estimate |S_wy|/S_ww (Welch, scipy.signal.csd/welch) over the part of the run after ``t_skip`` (the
 adaptation transient); :func:`plot_frequency` writes ``gain_factors.png`` and ``psd_reference.png``
-into a run folder.  Runs without a varying road (a flat road, a manoeuvre) get no frequency plots: a
+into a run folder (only when some run logs a reference model, so ordinary runs keep their standard
+plots).  Runs without a varying road (a flat road, a manoeuvre) get no frequency plots: a
 gain factor needs an input with spectral content.  Called from :func:`suspension_sim.plots.plot_run`.
 """
 from __future__ import annotations
@@ -37,8 +38,10 @@ def _road_channel(ts) -> str | None:
     return None
 
 
-def frequency_pairs(results: dict) -> list[tuple[str, str, str | None, str]]:
-    """(label, response, reference or None, unit) available in the runs (reference: first run that has it)."""
+def frequency_pairs(results: dict, require_reference: bool = True) -> list[tuple[str, str, str | None, str]]:
+    """(label, response, reference or None, unit) available in the runs (reference: first run that has it).
+    Without a reference channel: none, or with ``require_reference=False`` the body displacement and
+    acceleration gain factors alone."""
     out = []
     seen = set()
     for label, ch, ref, unit in _CANDIDATES:
@@ -49,7 +52,7 @@ def frequency_pairs(results: dict) -> list[tuple[str, str, str | None, str]]:
         if have_ch and have_ref:
             out.append((label, ch, ref, unit))
             seen.add(ch)
-    if not out:  # no reference: at least the body displacement and acceleration gain factors
+    if not out and not require_reference:  # no reference: the body displacement and acceleration alone
         for label, ch, unit in (("body displacement", "body_z", "m"), ("body acceleration", "body_acc", "m/s²")):
             if any(ch in r.ts.columns for r in results.values()):
                 out.append((label, ch, None, unit))
@@ -93,9 +96,11 @@ def _input_for(ch: str, ts, road: str):
     return w
 
 
-def plot_frequency(results, out_dir, t_skip: float | None = None, fmax: float = 20.0) -> list[Path]:
+def plot_frequency(results, out_dir, t_skip: float | None = None, fmax: float = 20.0,
+                   require_reference: bool = True) -> list[Path]:
     """Write ``gain_factors.png`` and ``psd_reference.png`` for ``results`` ({label: Result}); returns the
-    paths (none for runs without a varying road).  ``t_skip``: seconds dropped at the start (default:
+    paths (none for runs without a varying road, and — unless ``require_reference=False`` — none for runs
+    without a controller that logs a reference model).  ``t_skip``: seconds dropped at the start (default:
     a quarter of the run, at most 10 s)."""
     if hasattr(results, "timeseries"):
         results = {getattr(results.scenario, "name", "run"): results}
@@ -111,7 +116,7 @@ def plot_frequency(results, out_dir, t_skip: float | None = None, fmax: float = 
         runs[k] = (ts[ts["t"] >= skip].reset_index(drop=True), road)
     if not runs:
         return []
-    pairs = frequency_pairs({k: results[k] for k in runs})
+    pairs = frequency_pairs({k: results[k] for k in runs}, require_reference)
     if not pairs:
         return []
     out_dir.mkdir(parents=True, exist_ok=True)
