@@ -25,6 +25,12 @@ obtains its "mean upward force of 1500 N" through the estimated M* in Eq. 3.6 wi
 We add one parameter θ_d with regressor 1/P (the filtered constant 1): R(F + d) = R F + r1·d exactly for
 a constant d, so the error model stays linear in parameters and θ_d converges to r1·d; the actuator then
 carries the extra static load, F_act → ΔM·g.  ``static_level: false`` removes it (pure thesis structure).
+θ_d has its own normalised law (gain ``gamma_d``), the other five share the normalised gradient law.
+
+Filter choice — also ours when ``p1`` is set: the thesis takes P1 = A_m; for D_m = 6000 N·s/m, A_m has a
+slow pole at −0.86 rad/s, so the filtered regressors (and θ_d) see a load step only after seconds, and the
+body first drops ≈ 1 m.  The theory allows any stable monic P1 of degree 2 (the error model keeps
+b0·Q/(A0·A_m) = b0 with Q = A0·A_m; the filtered error becomes e_f = (Q/P)·e); ``p1`` sets P1 = (s + p1)².
 
 Gains not given by the thesis (γ, α, K_v, γ_b) are parameters; the scenario files give and justify them.
 Initial Θ: the nominal design values from M*, C*, K* (the thesis: "good adaptation with the approximation
@@ -91,7 +97,6 @@ class MRACContinuous(Controller):
         self.theta_nom = np.array([r1 - a0, s0, s1, t0, t1, 0.0])
         th0 = np.asarray(p.theta0, dtype=float) if p.theta0 is not None else self.theta_nom
         self.theta = np.tile(th0, (n, 1))
-        self.np_ = 6 if p.static_level else 5
         # per-parameter gain: scaled by the nominal magnitudes (conditioning of the normalised law)
         scale = np.abs(self.theta_nom).copy()
         scale[5] = 1000.0 * max(abs(r1), 1.0)  # θ_d ≈ r1·d with d of the order of kN
