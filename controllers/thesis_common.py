@@ -14,14 +14,16 @@ GRAVITY = 9.81
 
 
 def _f(x) -> float:
-    """The first value of a stacked parameter (controllers here take one value for the whole ensemble
-    where a structural quantity is concerned)."""
-    return float(np.asarray(x, dtype=float).reshape(-1)[0])
+    """The single value of a stacked parameter.  The thesis controllers build one design (filters, DARMA
+    model, Riccati gains) for the whole ensemble, so their parameters must be equal across its cars; an
+    ensemble whose cars differ in them raises a ScenarioError (run such cars as separate simulations)."""
+    a = np.asarray(x, dtype=float).reshape(-1)
+    if a.size and not np.all(a == a[0]):
+        from suspension_sim.errors import ScenarioError
 
-
-def col(x, n: int) -> np.ndarray:
-    """A stacked scalar parameter as a column (n_cars,)."""
-    return np.broadcast_to(np.asarray(x, dtype=float).reshape(-1), (n,)).astype(float)
+        raise ScenarioError("the thesis controllers need the same controller parameters for every car of an "
+                            "ensemble", field="controller.params")
+    return float(a[0])
 
 
 class FilterBank:
