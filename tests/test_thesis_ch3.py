@@ -14,7 +14,7 @@ from suspension_sim.simulation import Simulation
 G = 9.81
 
 
-def run_variants(repo, name, edit=None, variants=None):
+def run_variants(repo, name, edit=None, variants=None, results=False):
     raw = read_yaml(repo / "scenarios" / f"{name}.yaml")
     if edit:
         edit(raw)
@@ -22,7 +22,8 @@ def run_variants(repo, name, edit=None, variants=None):
     out = {}
     for vname, vsc in sc.expand():
         if variants is None or vname in variants:
-            out[vname] = Simulation([vsc]).run()[0].ts
+            r = Simulation([vsc]).run()[0]
+            out[vname] = r if results else r.ts
     return out
 
 
@@ -71,7 +72,7 @@ def dirt(request):
     def edit(raw):
         raw["sim"]["duration"] = 30.0
 
-    return run_variants(repo, "thesis_ch3_dirt", edit)
+    return run_variants(repo, "thesis_ch3_dirt", edit, results=True)
 
 
 def test_dirt_road_follows_reference_psd_better_than_passive(dirt):
@@ -80,7 +81,7 @@ def test_dirt_road_follows_reference_psd_better_than_passive(dirt):
     −10 % stiffness and damping, unknown to the controller); from 2 to 8 Hz it lies below both the
     passive PSD and (by ≈ 2×) the reference's — better isolation than the reference, reported in
     docs/issue4_results.md."""
-    ts_a, ts_p = dirt["mrac"], dirt["passive"]
+    ts_a, ts_p = dirt["mrac"].ts, dirt["passive"].ts
     fs = 1.0 / (ts_a.t[1] - ts_a.t[0])
     sel_a, sel_p = ts_a[ts_a.t > 8], ts_p[ts_p.t > 8]
     f, Pref = welch(sel_a["ctrl.ref_acc"].to_numpy(), fs=fs, nperseg=8192)
@@ -97,13 +98,16 @@ def test_dirt_road_follows_reference_psd_better_than_passive(dirt):
 
 
 def test_frequency_plots_written(dirt, tmp_path):
-    from types import SimpleNamespace
+    """The run folder's plots (plot_run, as `suspension-sim run` writes them) include the gain factors and
+    PSDs against the reference model; a run without a reference model gets none."""
+    from suspension_sim.plots import plot_run
+    from suspension_sim.plots_frequency import frequency_pairs
 
-    from suspension_sim.plots_frequency import frequency_pairs, plot_frequency
-
-    res = {k: SimpleNamespace(ts=v, timeseries=v) for k, v in dirt.items()}
-    pairs = frequency_pairs(res)
+    pairs = frequency_pairs(dirt)
     assert ("body acceleration", "body_acc", "ctrl.ref_acc", "m/s²") in pairs
-    paths = plot_frequency(res, tmp_path)
-    assert {p.name for p in paths} == {"gain_factors.png", "psd_reference.png"}
-    assert all(p.stat().st_size > 10000 for p in paths)
+    assert ("relative displacement", "travel", "ctrl.ref_travel", "m") in pairs
+    names = {p.name: p for p in plot_run(dirt, tmp_path / "both")}
+    assert {"gain_factors.png", "psd_reference.png"} <= set(names)
+    assert all(names[k].stat().st_size > 10000 for k in ("gain_factors.png", "psd_reference.png"))
+    alone = {p.name for p in plot_run({"passive": dirt["passive"]}, tmp_path / "passive")}
+    assert "gain_factors.png" not in alone
