@@ -115,13 +115,23 @@ def play_step(y, s, b):
 
 
 @nb.njit(cache=True, fastmath=True)
-def _deriv(kind, P, x, tidx, road, roaddot, Fa, w, y, Fs):
+def _hyst_states(P, s, s_old, w, y):
+    """Bouc–Wen and backlash states at travel ``s`` on the way from ``s_old`` (exact: both are rate
+    independent), so every RK4 stage sees the hysteretic force of its own travel."""
+    ws = bouc_wen_step(w, s - s_old, P[BWX]) if P[BWF] != 0.0 else w
+    ys = play_step(y, s, P[BLB]) if P[BLK] != 0.0 else y
+    return ws, ys
+
+
+@nb.njit(cache=True, fastmath=True)
+def _deriv(kind, P, x, tidx, road, roaddot, Fa, w, y, Fs, s_old):
     zs, vs, zu, vu = x[0], x[1], x[2], x[3]
     r = _interp(road, tidx)
     if kind == 0:
         s = zs - zu
         v = vs - vu
-        F = susp_force(P, s, v, w, y) + Fa
+        ws, ys = _hyst_states(P, s, s_old, w, y)
+        F = susp_force(P, s, v, ws, ys) + Fa
         rd = _interp(roaddot, tidx)
         xt = zu - r
         xtd = vu - rd
@@ -135,7 +145,8 @@ def _deriv(kind, P, x, tidx, road, roaddot, Fa, w, y, Fs):
         rd = _interp(roaddot, tidx)
         s = zs - r
         v = vs - rd
-        F = susp_force(P, s, v, w, y) + Fa
+        ws, ys = _hyst_states(P, s, s_old, w, y)
+        F = susp_force(P, s, v, ws, ys) + Fa
         return vs, F / P[MS], 0.0, 0.0, 0.0
 
 
@@ -177,7 +188,8 @@ def simulate_one(kind, P, road, roaddot, force, dt, nsub, x0, out):
         # outputs at sample i
         ti = float(i)
         Fa_i = Fa if lag else _cmd(P, force, ti, inv_dt)
-        d0, d1, d2, d3, Ft = _deriv(kind, P, x, ti, road, roaddot, Fa_i, w, yb, Fs)
+        s_i = x[0] - (x[2] if kind == 0 else _interp(road, ti))
+        d0, d1, d2, d3, Ft = _deriv(kind, P, x, ti, road, roaddot, Fa_i, w, yb, Fs, s_i)
         if kind == 0:
             out[i, 0] = d1
             out[i, 1] = d3
@@ -201,22 +213,22 @@ def simulate_one(kind, P, road, roaddot, force, dt, nsub, x0, out):
                 f1 = _cmd(P, force, t0 + 0.5 * hi, inv_dt)
                 f2 = _cmd(P, force, t0 + hi, inv_dt)
             s_old = x[0] - (x[2] if kind == 0 else _interp(road, t0))
-            k10, k11, k12, k13, _ = _deriv(kind, P, x, t0, road, roaddot, f0, w, yb, Fs)
+            k10, k11, k12, k13, _ = _deriv(kind, P, x, t0, road, roaddot, f0, w, yb, Fs, s_old)
             xk[0] = x[0] + 0.5 * h * k10
             xk[1] = x[1] + 0.5 * h * k11
             xk[2] = x[2] + 0.5 * h * k12
             xk[3] = x[3] + 0.5 * h * k13
-            k20, k21, k22, k23, _ = _deriv(kind, P, xk, t0 + 0.5 * hi, road, roaddot, f1, w, yb, Fs)
+            k20, k21, k22, k23, _ = _deriv(kind, P, xk, t0 + 0.5 * hi, road, roaddot, f1, w, yb, Fs, s_old)
             xk[0] = x[0] + 0.5 * h * k20
             xk[1] = x[1] + 0.5 * h * k21
             xk[2] = x[2] + 0.5 * h * k22
             xk[3] = x[3] + 0.5 * h * k23
-            k30, k31, k32, k33, _ = _deriv(kind, P, xk, t0 + 0.5 * hi, road, roaddot, f1, w, yb, Fs)
+            k30, k31, k32, k33, _ = _deriv(kind, P, xk, t0 + 0.5 * hi, road, roaddot, f1, w, yb, Fs, s_old)
             xk[0] = x[0] + h * k30
             xk[1] = x[1] + h * k31
             xk[2] = x[2] + h * k32
             xk[3] = x[3] + h * k33
-            k40, k41, k42, k43, _ = _deriv(kind, P, xk, t0 + hi, road, roaddot, f2, w, yb, Fs)
+            k40, k41, k42, k43, _ = _deriv(kind, P, xk, t0 + hi, road, roaddot, f2, w, yb, Fs, s_old)
             x[0] += h / 6.0 * (k10 + 2 * k20 + 2 * k30 + k40)
             x[1] += h / 6.0 * (k11 + 2 * k21 + 2 * k31 + k41)
             x[2] += h / 6.0 * (k12 + 2 * k22 + 2 * k32 + k42)

@@ -6,7 +6,8 @@
 3. A candidate is *kept* only if, on the held-out data, it lowers the error beyond the noise:
    (a) its BIC is below the current model's, (b) the drop of the squared error on held-out data is
    significant (z > 2 over 20 contiguous blocks, so that correlated residuals are not counted as
-   independent), (c) it removes at least ``min_excess_drop`` (default 10 %) of the held-out error that
+   independent; or, for effects that act rarely and concentrate their gain in a few blocks, the candidate
+   removes at least half of the held-out error above the noise floor), (c) it removes at least ``min_excess_drop`` (default 10 %) of the held-out error that
    lies *above the noise floor* (``sqrt(NRMSE² − floor²)``; the floor is the sensor noise estimated from the
    data, or a repeatability floor given by the user), and (d) the held-out NRMSE falls by at least
    ``min_rel_drop`` (default 5 %), so that a model already near the floor is not decorated with
@@ -321,6 +322,9 @@ class Selector:
         current_spec = _with_fit(self.spec, nominal)
         current = nominal
         sc = _scales(self.prob, nominal.P, b)
+        if self.rec.kind == "quarter_car":  # tire tension anywhere in the record (inputs are known throughout)
+            sc.tire_tension = _scales(self.prob, nominal.P, len(self.rec)).tire_tension or (
+                self.test_prob is not None and _scales(self.test_prob, _for_test(nominal.P), len(self.test_prob.rec)).tire_tension)
         cur_screen = fit(self.prob, current_spec, a, bs, max_nfev=1) if bs < b else current
         lib = library(self.rec.kind)
         if self.cand_filter is not None:
@@ -359,7 +363,10 @@ class Selector:
                 tr.bic, tr.aic = fr.bic(), fr.aic()
                 tr.d_bic = fr.bic() - cur_screen.bic()
                 tr.test_before, tr.test_after, tr.excess_before, tr.excess_after, tr.z = Eb, Ea, xb, xa, z
-                tr.kept = bool(tr.d_bic < 0 and z > self.z_min and xa <= (1 - self.min_excess_drop) * xb
+                # significance: z over blocks, or (for effects that act rarely, whose gain sits in a few
+                # blocks) a large gain that removes at least half of the held-out error above the floor
+                signif = z > self.z_min or xa <= 0.5 * xb
+                tr.kept = bool(tr.d_bic < 0 and signif and xa <= (1 - self.min_excess_drop) * xb
                                and Ea <= (1 - self.min_rel_drop) * Eb)
                 tr.seconds = time.perf_counter() - t1
                 return cand, spec_c, tr, fr
