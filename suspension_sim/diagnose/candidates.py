@@ -30,7 +30,7 @@ class Scales:
     c: float  # damping in use (N s/m)
     has_force: bool
     tire_tension: bool  # the nominal model predicts a pulling tire somewhere
-    m_red: float = 1.0  # mass of the relative motion across the suspension (kg)
+    m_red: float = np.inf  # mass of the relative motion across the suspension (kg; inf for a damper element)
     h: float = 1e-3  # simulation sub-step (s)
 
 
@@ -68,7 +68,8 @@ class Candidate:
 
 
 class CoulombFriction(Candidate):
-    """Dry friction ``F = −F_c·tanh(v/v_eps)`` on the suspension (v_eps fixed at 2 % of the RMS travel rate).
+    """Dry friction ``F = −F_c·tanh(v/v_eps)`` on the suspension (F_c and the regularisation v_eps fitted; v_eps
+    starts at 2 % of the RMS travel rate and stays soft enough for the simulator's explicit sub-step).
 
     Signature: a force step of 2·F_c at every travel-rate reversal (the residual force against travel rate
     is a step through the origin, flat on both sides); sticking and flat spots in travel at reversals;
@@ -76,13 +77,18 @@ class CoulombFriction(Candidate):
 
     name = "coulomb_friction"
 
+    def _veps_min(self, sc):
+        # soft enough for the explicit sub-step: F_c/v_eps·h/m_red <= 1 for F_c up to the RMS suspension force
+        return max(sc.F * sc.h / max(sc.m_red, 1e-12), 1e-5)
+
     def setup(self, P, sc):
-        # regularisation: 2 % of the RMS travel rate, but soft enough for the explicit sub-step
-        # (F_c/v_eps·h/m_red <= 1 for F_c up to the RMS suspension force)
-        P[fs.VEPS] = max(0.02 * sc.v, sc.F * sc.h / max(sc.m_red, 1e-12), 1e-5)
+        P[fs.VEPS] = max(0.02 * sc.v, self._veps_min(sc))
 
     def free(self, sc):
-        return [FreeParam("coulomb_friction.force", fs.CF, 0.05 * sc.F, 0.0, np.inf, sc.F)]
+        # the regularisation v_eps is fitted too (from 2 % of the RMS travel rate), bounded below by stability
+        v0 = max(0.02 * sc.v, self._veps_min(sc))
+        return [FreeParam("coulomb_friction.force", fs.CF, 0.05 * sc.F, 0.0, np.inf, sc.F),
+                FreeParam("coulomb_friction.v_eps", fs.VEPS, v0, self._veps_min(sc), max(0.5 * sc.v, 2 * v0), v0)]
 
     def describe(self, P):
         return {"effect": {"type": "coulomb_friction", "params": {"force": P[fs.CF], "v_eps": P[fs.VEPS]}}}

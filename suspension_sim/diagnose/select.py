@@ -133,7 +133,7 @@ def _scales(prob: Problem, P: np.ndarray, b: int) -> Scales:
 def _m_red(kind, P):
     if kind == "quarter_car":
         return float(P[fs.MS] * P[fs.MU] / (P[fs.MS] + P[fs.MU]))
-    return float(P[fs.MS]) if kind == "sdof" else 1.0
+    return float(P[fs.MS]) if kind == "sdof" else float("inf")
 
 
 def _with_fit(spec: ModelSpec, fr: FitResult) -> ModelSpec:
