@@ -8,23 +8,9 @@ import numpy as np
 import pytest
 from scipy.signal import welch
 
-from suspension_sim.config import parse_scenario, read_yaml
-from suspension_sim.simulation import Simulation
+from scenario_runs import run_variants
 
 G = 9.81
-
-
-def run_variants(repo, name, edit=None, variants=None, results=False):
-    raw = read_yaml(repo / "scenarios" / f"{name}.yaml")
-    if edit:
-        edit(raw)
-    sc = parse_scenario(raw)
-    out = {}
-    for vname, vsc in sc.expand():
-        if variants is None or vname in variants:
-            r = Simulation([vsc]).run()[0]
-            out[vname] = r if results else r.ts
-    return out
 
 
 def window(ts, t0, t1, col):

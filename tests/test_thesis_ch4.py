@@ -9,18 +9,9 @@ import pytest
 from scipy.signal import cont2discrete, welch
 
 from controllers.thesis_common import am_poly, darma, predictor
-from suspension_sim.config import parse_scenario, read_yaml
-from suspension_sim.simulation import Simulation
+from scenario_runs import run_variants
 
 G = 9.81
-
-
-def run_variants(repo, name, edit=None, variants=None):
-    raw = read_yaml(repo / "scenarios" / f"{name}.yaml")
-    if edit:
-        edit(raw)
-    sc = parse_scenario(raw)
-    return {v: Simulation([s]).run()[0].ts for v, s in sc.expand() if variants is None or v in variants}
 
 
 def window(ts, t0, t1, col):

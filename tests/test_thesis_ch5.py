@@ -8,17 +8,8 @@ from scipy.linalg import solve_continuous_are
 from scipy.signal import welch
 
 from controllers.thesis_soc_lqg import lqr_gain
-from suspension_sim.config import parse_scenario, read_yaml
 from suspension_sim.roads.hac import hac_shaping_filter
-from suspension_sim.simulation import Simulation
-
-
-def run_variants(repo, name, edit=None, variants=None):
-    raw = read_yaml(repo / "scenarios" / f"{name}.yaml")
-    if edit:
-        edit(raw)
-    sc = parse_scenario(raw)
-    return {v: Simulation([s]).run()[0].ts for v, s in sc.expand() if variants is None or v in variants}
+from scenario_runs import run_variants
 
 
 def test_cross_term_riccati_equals_the_transformed_problem():

@@ -6,16 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from suspension_sim.config import parse_scenario, read_yaml
+from suspension_sim.config import parse_scenario
 from suspension_sim.simulation import Simulation
-
-
-def run_variants(repo, name, edit=None):
-    raw = read_yaml(repo / "scenarios" / f"{name}.yaml")
-    if edit:
-        edit(raw)
-    sc = parse_scenario(raw)
-    return {v: Simulation([s]).run()[0].ts for v, s in sc.expand()}
+from scenario_runs import run_variants
 
 
 def rms_err(ts, ref, col):

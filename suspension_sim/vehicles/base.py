@@ -19,7 +19,7 @@ spring lengths (preloads) that make ``qpos = 0`` the equilibrium under gravity f
 from __future__ import annotations
 
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import mujoco
@@ -103,6 +103,15 @@ class Vehicle:
 def set_body_mass(root: mjcf.RootElement, body: str, mass: float) -> None:
     b = root.find("body", body)
     b.inertial.mass = float(mass)
+
+
+def size_body_box(root: mjcf.RootElement, a: float, b: float, half_width: float | None = None) -> None:
+    """Drawing only: stretch the ``body_box`` geom over both axles (a ahead of, b behind the c.g.) and put
+    the ``body_nose`` marker at the front."""
+    box, nose = root.find("geom", "body_box"), root.find("geom", "body_nose")
+    box.size = [0.5 * (a + b) + 0.3, box.size[1] if half_width is None else half_width, box.size[2]]
+    box.pos = [0.5 * (a - b), 0.0, 0.0]
+    nose.pos = [a + 0.2, nose.pos[1], nose.pos[2]]
 
 
 def set_tendon(root: mjcf.RootElement, name: str, stiffness: float | None = None, damping: float | None = None):

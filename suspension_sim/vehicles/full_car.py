@@ -42,7 +42,7 @@ from pydantic import Field
 
 from ..components import Params
 from ..registry import VEHICLES
-from .base import Corner, Vehicle, set_body_mass, set_tendon
+from .base import Corner, Vehicle, set_body_mass, set_tendon, size_body_box
 
 CORNERS = ("fl", "fr", "rl", "rr")
 
@@ -125,13 +125,7 @@ class FullCar(Vehicle):
         set_tendon(root, "arb_rear", p.arb_rear, 0.0)
         _set_coefs(root, "arb_front", {"roll": float(p.track_front)})
         _set_coefs(root, "arb_rear", {"roll": float(p.track_rear)})
-        # drawing only: body box spanning both axles, a nose marker at the front
-        a, b = float(p.a), float(p.b)
-        box, nose = root.find("geom", "body_box"), root.find("geom", "body_nose")
-        half_w = 0.5 * max(float(p.track_front), float(p.track_rear)) + 0.03
-        box.size = [0.5 * (a + b) + 0.3, half_w, box.size[2]]
-        box.pos = [0.5 * (a - b), 0.0, 0.0]
-        nose.pos = [a + 0.2, nose.pos[1], nose.pos[2]]
+        size_body_box(root, float(p.a), float(p.b), 0.5 * max(float(p.track_front), float(p.track_rear)) + 0.03)
 
     @classmethod
     def variation_targets(cls, p):

@@ -39,7 +39,7 @@ from pydantic import Field
 
 from ..components import Params
 from ..registry import VEHICLES
-from .base import Corner, Vehicle, set_body_mass, set_tendon
+from .base import Corner, Vehicle, set_body_mass, set_tendon, size_body_box
 
 
 class HalfCarParams(Params):
@@ -91,11 +91,7 @@ class HalfCar(Vehicle):
             for elem in root.find("tendon", f"suspension_{s}").joint:
                 if getattr(elem.joint, "name", elem.joint) == "pitch":  # a reference to the joint element
                     elem.coef = -x
-        # drawing only: body box spanning both axles, a nose marker at the front
-        box, nose = root.find("geom", "body_box"), root.find("geom", "body_nose")
-        box.size = [0.5 * (a + b) + 0.3, box.size[1], box.size[2]]
-        box.pos = [0.5 * (a - b), 0.0, 0.0]
-        nose.pos = [a + 0.2, nose.pos[1], nose.pos[2]]
+        size_body_box(root, a, b)
 
     @classmethod
     def variation_targets(cls, p):
