@@ -91,7 +91,7 @@ class CoulombFriction(Candidate):
                 FreeParam("coulomb_friction.v_eps", fs.VEPS, v0, self._veps_min(sc), max(0.5 * sc.v, 2 * v0), v0)]
 
     def describe(self, P):
-        return {"effect": {"type": "coulomb_friction", "params": {"force": P[fs.CF], "v_eps": P[fs.VEPS]}}}
+        return {"effect": {"type": "coulomb_friction", "params": {"force": P[fs.CF], "law": "tanh", "v_eps": P[fs.VEPS]}}}
 
 
 class QuadraticDamping(Candidate):

@@ -168,6 +168,11 @@ def load_model(path_or_dict, source: str | None = None) -> ModelSpec:
         if et == "tire_liftoff":
             P[fs.LIFT] = 1.0
         for pn, val in ep.items():
+            if et == "coulomb_friction" and pn == "law":
+                if val != "tanh":
+                    raise ScenarioError("diagnose models Coulomb friction with the tanh law (give law: tanh and "
+                                        "v_eps)", source=source, field=f"effects.{i}.params.law")
+                continue
             if pn not in EFFECT_SLOTS[et]:
                 raise ScenarioError(f"parameter {pn!r} of {et} is not supported here", source=source,
                                     field=f"effects.{i}.params.{pn}")

@@ -45,11 +45,14 @@ def vehicle_block(D: Diagnosis) -> dict:
         from .model import EFFECT_SLOTS
 
         ep = {pn: float(P[slot]) for pn, slot in EFFECT_SLOTS[et].items()}
+        if et == "coulomb_friction":
+            ep["law"] = "tanh"
         effects.append({"type": et, "params": ep})
     for cand, _, _ in D.added:
         d = cand.describe(P)
         if "effect" in d:
-            effects.append({"type": d["effect"]["type"], "params": {k: float(v) for k, v in d["effect"]["params"].items()}})
+            effects.append({"type": d["effect"]["type"], "params": {k: (v if isinstance(v, str) else float(v))
+                                                                    for k, v in d["effect"]["params"].items()}})
         elif "actuator" in d:
             actuator.update({k: float(v) for k, v in d["actuator"].items()})
     veh = {"model": kind, "params": params, "effects": effects}
@@ -173,7 +176,7 @@ def build_report(D: Diagnosis, out: Path, confirm: bool = True, plots: bool = Tr
         ci = {k.split(".", 1)[-1]: D.final.ci95.get(k) for k in names}
         desc = cand.describe(D.final.P)
         if "effect" in desc:
-            params.update({k: float(v) for k, v in desc["effect"]["params"].items()})
+            params.update({k: v if isinstance(v, str) else float(v) for k, v in desc["effect"]["params"].items()})
         effects.append({"name": cand.name, "parameters": params, "ci95": ci,
                         "evidence": {"round": tr.round, "delta_bic_train": tr.d_bic, "aic_train": tr.aic,
                                      "test_nrmse_before": tr.test_before, "test_nrmse_after": tr.test_after,
@@ -338,8 +341,9 @@ def write_html(D, rep: dict, figs, path: Path) -> None:
                         f"<td>{rep['noise_floor'][c]['nrmse']:.3g}</td></tr>")
     eff_rows = []
     for ef in rep["effects"]:
-        ps = "<br>".join(f"{e(k)} = {v:.5g}" + (f" [{ef['ci95'][k][0]:.4g}, {ef['ci95'][k][1]:.4g}]"
-                                                 if ef["ci95"].get(k) else "") for k, v in ef["parameters"].items())
+        ps = "<br>".join(f"{e(k)} = {v if isinstance(v, str) else format(v, '.5g')}"
+                         + (f" [{ef['ci95'][k][0]:.4g}, {ef['ci95'][k][1]:.4g}]" if ef["ci95"].get(k) else "")
+                         for k, v in ef["parameters"].items())
         ev = ef["evidence"]
         eff_rows.append(f"<tr><td><b>{e(ef['name'])}</b></td><td>{ps}</td><td>{ev['delta_bic_train']:.1f}</td>"
                         f"<td>{ev['test_nrmse_before']:.4g} → {ev['test_nrmse_after']:.4g}</td><td>{ev['z_test_improvement']:.1f}</td>"
