@@ -70,7 +70,6 @@ a scenario whose nominal values equal the plant's.  θ̂(0) = (nominal α)·(nom
 from __future__ import annotations
 
 import functools
-import math
 
 import numpy as np
 from pydantic import Field

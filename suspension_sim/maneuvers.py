@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field
 
-from .components import Params, stack_params, validate_params
+from .components import Params, validate_params
 from .errors import ScenarioError
 from .registry import Registry
 

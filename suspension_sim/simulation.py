@@ -490,7 +490,6 @@ class Simulation:
         bad_q = ~np.isfinite(q) | (np.abs(q) > lim_x)
         bad_v = ~np.isfinite(v) | (np.abs(v) > lim_v)
         if bad_q.any() or bad_v.any():
-            m = P.model
             dof = P.free_v[np.argmax(bad_v)] if bad_v.any() else None
             qa = P.free_q[np.argmax(bad_q)] if bad_q.any() else None
             car = None

@@ -12,7 +12,6 @@ roads below therefore excite the effects mainly through low-frequency, large-amp
 """
 from __future__ import annotations
 
-import warnings
 
 import numpy as np
 import pytest

@@ -7,7 +7,6 @@ server at ``--rate`` times real time.  ``--write-only`` just writes ``viewer.htm
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
 
 import typer
 

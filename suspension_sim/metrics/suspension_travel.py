@@ -1,5 +1,4 @@
 """RMS and peak suspension travel, and time on the bump stops, per corner."""
-import numpy as np
 
 from ..registry import METRICS
 from ._util import duration, fraction, peak

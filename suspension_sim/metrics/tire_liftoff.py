@@ -1,5 +1,4 @@
 """Tire lift-off time per corner."""
-import numpy as np
 
 from ..registry import METRICS
 from ._util import duration, fraction

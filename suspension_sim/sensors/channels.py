@@ -2,7 +2,6 @@
 load cells, road height and preview."""
 from __future__ import annotations
 
-import numpy as np
 from pydantic import Field
 
 from ..components import Params
