@@ -470,6 +470,20 @@ def raw_model_variants(n=256, k=1000):
     return out
 
 
+def mrac_call_cost(n_cars, duration=1.0):
+    """CPU µs per call of the thesis MRAC (the controller of bench_speed.py) as a Python component."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import bench_speed as B
+    from suspension_sim.config import parse_scenario
+    from suspension_sim.simulation import Simulation
+
+    sim = Simulation([parse_scenario(B.scenario_raw(duration=duration)) for _ in range(n_cars)])
+    acc = [0.0]
+    B.timed_step(sim.controller, acc)
+    sim.run()
+    return acc[0] / round(duration / CONTROL_DT)
+
+
 def main():
     _register_adaptive()
     import mujoco as _mj
@@ -521,6 +535,8 @@ def main():
         print(f"{'':<26}(b') vs (b): max rel. deviation {r['dev_h']:.1e}; the Python controller's own call: "
               f"{r['ctrl_call'] * us:.1f} µs per control step; precomputing the road array (not in (b)): "
               f"{r['road'] * us:.3f} µs/car-step")
+    print("\nthe thesis MRAC (bench_speed.py) as a Python controller: "
+          + ", ".join(f"{n} car(s) {mrac_call_cost(n) * us:.0f} µs per call" for n in (1, 256)))
     print("\nraw mj_step(nstep), 256-car ensemble, model variants (what bounds the batch target):")
     for label, nv, v in raw_model_variants():
         print(f"  {label:<52} dof/car {nv}  {v * us:.3f} µs/car-step  {DT / v:6.0f}x real time")
