@@ -163,7 +163,7 @@ def mujoco_confirm(D: Diagnosis, out: Path, max_seconds: float = 120.0) -> dict:
 def build_report(D: Diagnosis, out: Path, confirm: bool = True, plots: bool = True) -> dict:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    blk = write_fitted_yaml(D, out / "model.fitted.yaml")
+    write_fitted_yaml(D, out / "model.fitted.yaml")
     mjcf_err = write_mjcf(D, out / "model.fitted.xml")
     before, after = D.nrmse(D.nominal), D.nrmse(D.final)
     rb, ra = D.rmse(D.nominal), D.rmse(D.final)

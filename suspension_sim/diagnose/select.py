@@ -171,7 +171,6 @@ def init_sdof(rec: Record, spec: ModelSpec) -> None:
     dt = rec.dt
     x = rec.outputs["pos"]
     base = rec.inputs.get("base", np.zeros_like(x))
-    v = np.gradient(x, dt)
     # three-point second difference: less high-frequency bias than differentiating twice with 2·dt spacing
     acc = np.empty_like(x)
     acc[1:-1] = (x[2:] - 2 * x[1:-1] + x[:-2]) / dt ** 2
