@@ -142,11 +142,13 @@ def validate(
 
 
 @app.command("list")
-def list_(kind: Optional[str] = typer.Argument(None, help="models|effects|roads|sensors|actuators|controllers|metrics")):
-    """List the registered models, effects, roads, sensors, actuators, controllers and metrics."""
+def list_(kind: Optional[str] = typer.Argument(
+        None, help="models|effects|roads|maneuvers|sensors|actuators|controllers|metrics")):
+    """List the registered models, effects, roads, manoeuvres, sensors, actuators, controllers and metrics."""
+    from .maneuvers import MANEUVERS
     from .registry import ACTUATORS, CONTROLLERS, EFFECTS, METRICS, ROADS, SENSORS, VEHICLES, summary_line
 
-    groups = {"models": VEHICLES, "effects": EFFECTS, "roads": ROADS, "sensors": SENSORS,
+    groups = {"models": VEHICLES, "effects": EFFECTS, "roads": ROADS, "maneuvers": MANEUVERS, "sensors": SENSORS,
               "actuators": ACTUATORS, "controllers": CONTROLLERS, "metrics": METRICS}
     if kind and kind not in groups:
         fail(f"unknown kind {kind!r} (choose from {', '.join(groups)})")

@@ -58,5 +58,5 @@ def test_validate_and_list(repo):
     assert res.exit_code == 0 and "ok" in res.output
     res = runner.invoke(app, ["list"])
     assert res.exit_code == 0
-    for word in ("quarter_car", "half_car", "sdof", "bump_stop", "iso8608", "skyhook", "ideal", "travel"):
+    for word in ("quarter_car", "half_car", "sdof", "bump_stop", "iso8608", "accel_brake", "skyhook", "ideal", "travel"):
         assert word in res.output
