@@ -36,13 +36,21 @@ class Problem:
         ins = rec.inputs
         if rec.kind == "damper":
             road, roaddot = ins["disp"], ins["vel"]
+        elif rec.kind == "half_car":
+            road = ins["road_front"]
+            roaddot = np.gradient(road, self.dt)
         else:
             road = ins.get("road", ins.get("base", np.zeros(n)))
             roaddot = np.gradient(road, self.dt) if np.any(road) else np.zeros(n)
-        force = ins.get("force", np.zeros(n))
+        force = ins.get("force", ins.get("force_front", np.zeros(n)))
         self.inputs = {"road": np.ascontiguousarray(road, float), "roaddot": np.ascontiguousarray(roaddot, float),
                        "force": np.ascontiguousarray(force, float)}
         self.has_force = "force" in ins and bool(np.any(ins["force"]))
+        if rec.kind == "half_car":
+            rr = np.ascontiguousarray(ins["road_rear"], float)
+            self.inputs.update(road_r=rr, roaddot_r=np.ascontiguousarray(np.gradient(rr, self.dt)),
+                               force_r=np.ascontiguousarray(ins.get("force_rear", np.zeros(n)), float))
+            self.has_force = any(k in ins and bool(np.any(ins[k])) for k in ("force_front", "force_rear"))
         chans = fs.CHANNELS[rec.kind]
         self.channels = [c for c in chans if c in rec.outputs]
         self.col = np.array([chans.index(c) for c in self.channels])
@@ -60,6 +68,10 @@ class Problem:
             return float(np.sqrt((P[fs.KT] + P[fs.K]) / P[fs.MU]) + np.sqrt(P[fs.K] / mr))
         if spec.kind == "sdof":
             return float(np.sqrt(max(P[fs.K], 0) / P[fs.MS]))
+        if spec.kind == "half_car":
+            m = 0.5 * P[fs.MS]
+            return float(max(np.sqrt((P[kt] + P[k]) / P[mu]) + np.sqrt(P[k] * (m + P[mu]) / (m * P[mu]))
+                             for k, kt, mu in ((fs.K, fs.KT, fs.MU), (fs.K_R, fs.KT_R, fs.MU_R))))
         return 0.0
 
     def simulate(self, P, a: int = 0, b: int | None = None) -> np.ndarray:
@@ -98,6 +110,8 @@ def initial_state(rec: Record, dt: float) -> np.ndarray:
         c = np.polyfit(tt, y[:n0], 2)
         return float(c[2]), float(c[1])
 
+    if rec.kind == "half_car":
+        return np.zeros(8)  # the record starts at rest (initial-state estimation not implemented for a half car)
     x = np.zeros(4)
     if rec.kind == "quarter_car":
         if "body_pos" in o:

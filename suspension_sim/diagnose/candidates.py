@@ -38,7 +38,7 @@ class Candidate:
     """Base class: ``name``, ``applies(kind, scales)``, ``free(scales)`` -> FreeParams, ``starts``."""
 
     name = ""
-    kinds = ("quarter_car", "sdof", "damper")
+    kinds = ("quarter_car", "sdof", "damper", "half_car")
 
     def applies(self, kind: str, sc: Scales, spec) -> tuple[bool, str]:
         if kind not in self.kinds:
@@ -180,7 +180,7 @@ class TireLiftoff(Candidate):
     frequency.  Applies only when the nominal model predicts a pulling tire somewhere."""
 
     name = "tire_liftoff"
-    kinds = ("quarter_car",)
+    kinds = ("quarter_car", "half_car")
 
     def applies(self, kind, sc, spec):
         ok, why = super().applies(kind, sc, spec)
@@ -203,7 +203,7 @@ class ActuatorDelay(Candidate):
     frequency (−360°·f·d)."""
 
     name = "actuator_delay"
-    kinds = ("quarter_car", "sdof")
+    kinds = ("quarter_car", "sdof", "half_car")
 
     def applies(self, kind, sc, spec):
         ok, why = super().applies(kind, sc, spec)
@@ -307,8 +307,10 @@ class WrongParameter(Candidate):
 
     def free_for(self, P):
         v = P[self.slot]
-        return [FreeParam(self.pname, self.slot, v, 1e-6 * abs(v) if self.pname in ("sprung_mass", "unsprung_mass",
-                          "tire_stiffness") else 0.0, np.inf, max(abs(v), 1e-9))]
+        from .model import POSITIVE
+
+        return [FreeParam(self.pname, self.slot, v, 1e-6 * abs(v) if self.pname in POSITIVE else 0.0, np.inf,
+                          max(abs(v), 1e-9))]
 
     def describe(self, P):
         return {"param": {self.pname: P[self.slot]}}

@@ -66,6 +66,8 @@ def force_map(prob, P: np.ndarray, floors: dict, a: int, b: int, nbins: int = 12
     rec = prob.rec
     o, dt = rec.outputs, rec.dt
     kind = rec.kind
+    if kind == "half_car":
+        return None  # a corner's force does not follow from its body acceleration alone (pitch couples them)
     if kind == "quarter_car":
         if "body_acc" not in o or "susp_travel" not in o:
             return None

@@ -25,14 +25,28 @@ NOMINAL = {
                     "tire_stiffness": fs.KT, "tire_damping": fs.CT},
     "sdof": {"sprung_mass": fs.MS, "spring_stiffness": fs.K, "damping": fs.C},
     "damper": {"spring_stiffness": fs.K, "damping": fs.C},
+    # half car: nominal parameters per corner (as in suspension_sim/vehicles/half_car.py); effects are shared
+    "half_car": {"sprung_mass": fs.MS, "pitch_inertia": fs.IYY, "a": fs.HA, "b": fs.HB,
+                 "unsprung_mass_front": fs.MU, "unsprung_mass_rear": fs.MU_R,
+                 "spring_stiffness_front": fs.K, "spring_stiffness_rear": fs.K_R,
+                 "damping_front": fs.C, "damping_rear": fs.C_R,
+                 "tire_stiffness_front": fs.KT, "tire_stiffness_rear": fs.KT_R,
+                 "tire_damping_front": fs.CT, "tire_damping_rear": fs.CT_R},
 }
 DEFAULTS = {
     "quarter_car": {"sprung_mass": 290.0, "unsprung_mass": 59.0, "spring_stiffness": 16812.0, "damping": 1000.0,
                     "tire_stiffness": 190000.0, "tire_damping": 0.0},
     "sdof": {"sprung_mass": 250.0, "spring_stiffness": 5000.0, "damping": 250.0},
     "damper": {"spring_stiffness": 0.0, "damping": 1000.0},
+    "half_car": {"sprung_mass": 500.0, "pitch_inertia": 1125.0, "a": 1.5, "b": 1.5, "unsprung_mass_front": 45.0,
+                 "unsprung_mass_rear": 45.0, "spring_stiffness_front": 17000.0, "spring_stiffness_rear": 17000.0,
+                 "damping_front": 1250.0, "damping_rear": 1250.0, "tire_stiffness_front": 100000.0,
+                 "tire_stiffness_rear": 100000.0, "tire_damping_front": 0.0, "tire_damping_rear": 0.0},
 }
-POSITIVE = {"sprung_mass", "unsprung_mass", "tire_stiffness"}
+POSITIVE = {"sprung_mass", "unsprung_mass", "tire_stiffness", "pitch_inertia", "a", "b", "unsprung_mass_front",
+            "unsprung_mass_rear", "tire_stiffness_front", "tire_stiffness_rear"}
+# vehicle parameters that do not enter the diagnosed dynamics (kept in the fitted model as given)
+IGNORED = {"half_car": {"cg_height"}}
 # effects of the vehicle block we can represent in the fast simulator: type -> {param: slot}
 EFFECT_SLOTS = {
     "coulomb_friction": {"force": fs.CF, "v_eps": fs.VEPS},
@@ -131,13 +145,10 @@ def load_model(path_or_dict, source: str | None = None) -> ModelSpec:
     unknown = set(raw) - {"model", "params", "effects", "inputs", "variations", "maneuver"}
     if unknown:
         raise ScenarioError(f"unknown key(s) {sorted(unknown)} in the vehicle block", source=source)
-    if kind == "half_car":
-        raise ScenarioError("diagnose does not fit half_car models yet (quarter_car, sdof and damper are supported)",
-                            source=source, field="model")
     if kind not in NOMINAL:
         raise ScenarioError(f"unknown model {kind!r} (diagnose supports {', '.join(NOMINAL)})", source=source,
                             field="model")
-    params = raw.get("params") or {}
+    params = {k: v for k, v in (raw.get("params") or {}).items() if k not in IGNORED.get(kind, ())}
     bad = [k for k in params if k not in NOMINAL[kind]]
     if bad:
         raise ScenarioError(f"unknown parameter(s) {bad} for {kind} (known: {', '.join(NOMINAL[kind])})",

@@ -113,6 +113,12 @@ def _scales(prob: Problem, P: np.ndarray, b: int) -> Scales:
         s = out[:, 2]
         ft = out[:, 5]
         tension = bool(np.any((P[fs.MS] + P[fs.MU]) * fs.G + ft < 0))
+    elif prob.kind == "half_car":
+        # both corners' travels pooled (the effects are shared by the corners)
+        s = np.concatenate([out[:, 2] - np.mean(out[:, 2]), out[:, 8] - np.mean(out[:, 8])])
+        L = P[fs.HA] + P[fs.HB]
+        tension = bool(np.any((P[fs.MS] * P[fs.HB] / L + P[fs.MU]) * fs.G + out[:, 5] < 0)
+                       or np.any((P[fs.MS] * P[fs.HA] / L + P[fs.MU_R]) * fs.G + out[:, 11] < 0))
     elif prob.kind == "sdof":
         s = out[:, 2] - prob.inputs["road"][:b]
         tension = False
@@ -120,7 +126,10 @@ def _scales(prob: Problem, P: np.ndarray, b: int) -> Scales:
         s = prob.inputs["road"][:b]
         tension = False
     s = s - np.mean(s) if prob.kind != "damper" else s
-    v = np.gradient(s, prob.dt) if prob.kind != "damper" else prob.inputs["roaddot"][:b]
+    if prob.kind == "half_car":
+        v = np.concatenate([np.gradient(s[:b], prob.dt), np.gradient(s[b:], prob.dt)])
+    else:
+        v = np.gradient(s, prob.dt) if prob.kind != "damper" else prob.inputs["roaddot"][:b]
     F = P[fs.K] * s + P[fs.C] * v
     Fr = float(np.sqrt(np.mean(F ** 2)))
     if Fr <= 0 and prob.has_force:
@@ -131,6 +140,9 @@ def _scales(prob: Problem, P: np.ndarray, b: int) -> Scales:
 
 
 def _m_red(kind, P):
+    if kind == "half_car":
+        m = 0.5 * P[fs.MS]
+        return float(min(m * P[fs.MU] / (m + P[fs.MU]), m * P[fs.MU_R] / (m + P[fs.MU_R])))
     if kind == "quarter_car":
         return float(P[fs.MS] * P[fs.MU] / (P[fs.MS] + P[fs.MU]))
     return float(P[fs.MS]) if kind == "sdof" else float("inf")
@@ -321,7 +333,7 @@ class Selector:
         current_spec = _with_fit(self.spec, nominal)
         current = nominal
         sc = _scales(self.prob, nominal.P, b)
-        if self.rec.kind == "quarter_car":  # tire tension anywhere in the record (inputs are known throughout)
+        if self.rec.kind in ("quarter_car", "half_car"):  # tire tension anywhere in the record (inputs are known throughout)
             sc.tire_tension = _scales(self.prob, nominal.P, len(self.rec)).tire_tension or (
                 self.test_prob is not None and _scales(self.test_prob, _for_test(nominal.P), len(self.test_prob.rec)).tire_tension)
         cur_screen = fit(self.prob, current_spec, a, bs, max_nfev=1) if bs < b else current
