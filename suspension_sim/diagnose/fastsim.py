@@ -16,7 +16,13 @@ positive push the body up):
   ``F = −k·s − c·ṡ + Σ effects + F_a`` and the (dynamic) tire force ``F_t = −k_t·(z_u − r) − c_t·(ż_u − ṙ)``
   (+ the lift-off correction that keeps the total tire force ``F_static + F_t`` ≥ 0);
 - SDOF rig: ``m·z̈ = F`` with ``s = z − base``;
-- damper element: the measured (resisting) force is ``−F`` at the prescribed displacement and velocity.
+- damper element: the measured (resisting) force is ``−F`` at the prescribed displacement and velocity;
+- half car (:func:`simulate_half`): bounce ``z_s`` and pitch ``θ`` (positive = nose down) of the body, front
+  wheel at ``x = +a`` and rear wheel at ``x = −b``; each corner is a quarter car's suspension and tire with
+  its own nominal parameters (front: the quarter-car slots, rear: ``*_R``) and the body at the corner at
+  ``z_s − x·θ``: ``M·z̈_s = F_f + F_r``, ``I·θ̈ = −a·F_f + b·F_r``.  Every effect acts at both corners with
+  the same parameters (its own hysteresis/backlash state per corner); the force inputs ``force_front`` /
+  ``force_rear`` share the gain, offset, delay and lag.
 
 The actuator force is ``F_a`` = lag(delay(gain·u + offset)) of the measured force input ``u``.  Stateful
 effects (Bouc–Wen hysteresis, backlash) are rate independent, so their states are advanced exactly from the

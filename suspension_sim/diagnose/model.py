@@ -7,6 +7,10 @@ with one.  A parameter is *free* (calibrated) when it is absent, written ``free`
 force input (they are not vehicle parameters): ``inputs: {force_gain: 1.0, force_offset: free}`` (the
 actuator force is ``gain·u + offset``; by default the gain is 1 and the offset is free when a force input is
 measured).  ``model: damper`` describes a force element alone (params ``spring_stiffness``, ``damping``).
+``model: half_car`` takes the parameters of :mod:`suspension_sim.vehicles.half_car` (per corner with
+``_front``/``_rear``; ``cg_height`` is kept but does not enter the diagnosis).  For a half car the geometry
+``a``, ``b`` and ``pitch_inertia`` are free when absent like everything else: give them when known.  Added
+effects act at both corners with shared parameters (one candidate = one effect on the whole axle pair).
 """
 from __future__ import annotations
 

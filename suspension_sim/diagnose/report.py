@@ -37,6 +37,9 @@ def vehicle_block(D: Diagnosis) -> dict:
     P = D.final.P
     kind = D.record.kind
     params = {n: float(P[slot]) for n, slot in NOMINAL[kind].items()}
+    from .model import IGNORED
+
+    params.update({k: v for k, v in (D.final.spec.raw.get("params") or {}).items() if k in IGNORED.get(kind, ())})
     effects, actuator = [], {}
     spec = D.final.spec
     known = [e for e in spec.raw.get("effects") or []]
