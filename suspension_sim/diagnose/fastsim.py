@@ -42,12 +42,13 @@ DX0 = 23  # 23..26: corrections added to the initial state (z_s, ż_s, z_u, ż_u
 # half car: the front corner uses MU, K, C, KT, CT; these slots hold the pitch inertia, the axle distances and
 # the rear corner's parameters
 IYY, HA, HB, MU_R, K_R, C_R, KT_R, CT_R = range(27, 35)
-NP = 35
+SUB = 35  # sub-step refinement factor (≥ 1) a parameter set asks for (a sharp friction law needs smaller steps)
+NP = 36
 SLOTS = ["sprung_mass", "unsprung_mass", "spring_stiffness", "damping", "tire_stiffness", "tire_damping",
          "force_gain", "force_offset", "cf_force", "cf_v_eps", "qd_c_v", "as_c_comp", "as_c_reb", "bs_gap",
          "bs_stiffness", "cs_k3", "tl_on", "act_delay", "act_tau", "bw_force", "bw_x_y", "bl_stiffness", "bl_play",
          "dx0_zs", "dx0_vs", "dx0_zu", "dx0_vu", "pitch_inertia", "a", "b", "unsprung_mass_rear",
-         "spring_stiffness_rear", "damping_rear", "tire_stiffness_rear", "tire_damping_rear"]
+         "spring_stiffness_rear", "damping_rear", "tire_stiffness_rear", "tire_damping_rear", "substep_factor"]
 KINDS = {"quarter_car": 0, "sdof": 1, "damper": 2, "half_car": 3}
 CHANNELS = {
     "quarter_car": ["body_acc", "wheel_acc", "susp_travel", "body_pos", "wheel_pos", "tire_force"],
@@ -178,6 +179,7 @@ def simulate_one(kind, P, road, roaddot, force, dt, nsub, x0, out):
     """Simulate one parameter set; fills ``out`` (N, n_channels) with the channels of :data:`CHANNELS`."""
     n = road.shape[0]
     inv_dt = 1.0 / dt
+    nsub = nsub * max(1, int(P[SUB] + 0.5))
     h = dt / nsub
     hi = 1.0 / nsub  # sub-step in sample-index units
     Fs = (P[MS] + P[MU]) * G
@@ -316,6 +318,7 @@ def simulate_half(P, rf, rfd, rr, rrd, uf, ur, dt, nsub, x0, out):
     The force inputs ``uf``/``ur`` act at the front/rear corner through the same gain, offset, delay and lag."""
     n = rf.shape[0]
     inv_dt = 1.0 / dt
+    nsub = nsub * max(1, int(P[SUB] + 0.5))
     h = dt / nsub
     hi = 1.0 / nsub
     a, b = P[HA], P[HB]
@@ -432,6 +435,7 @@ def default_params() -> np.ndarray:
     P[BWX] = 0.01
     P[MS] = P[MU] = 1.0
     P[IYY] = P[HA] = P[HB] = P[MU_R] = 1.0
+    P[SUB] = 1.0
     return P
 
 
