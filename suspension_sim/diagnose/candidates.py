@@ -69,7 +69,8 @@ class Candidate:
 
 class CoulombFriction(Candidate):
     """Dry friction ``F = −F_c·tanh(v/v_eps)`` on the suspension (F_c and the regularisation v_eps fitted; v_eps
-    starts at 2 % of the RMS travel rate and stays soft enough for the simulator's explicit sub-step).
+    starts at 2 % of the RMS travel rate and stays soft enough for the simulator's explicit sub-step, which
+    the candidate refines up to ×4 so that v_eps can get that low).
 
     Signature: a force step of 2·F_c at every travel-rate reversal (the residual force against travel rate
     is a step through the origin, flat on both sides); sticking and flat spots in travel at reversals;
