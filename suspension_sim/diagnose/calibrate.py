@@ -193,8 +193,9 @@ def fit(prob: Problem, spec: ModelSpec, a: int, b: int, starts: list[np.ndarray]
     fun, jac = _residual_fn(prob, spec, a, b, xs)
     best = None
     for x0 in (starts or [spec.x0]):
-        lo_in = np.where(np.isfinite(lo), lo + 1e-9 * np.maximum(1, np.abs(lo)), lo)
-        hi_in = np.where(np.isfinite(hi), hi - 1e-9 * np.maximum(1, np.abs(hi)), hi)
+        with np.errstate(invalid="ignore"):  # the masked branch evaluates inf - inf for unbounded sides
+            lo_in = np.where(np.isfinite(lo), lo + 1e-9 * np.maximum(1, np.abs(lo)), lo)
+            hi_in = np.where(np.isfinite(hi), hi - 1e-9 * np.maximum(1, np.abs(hi)), hi)
         z0 = np.clip(np.asarray(x0, float) / xs, lo_in, hi_in)
         try:
             res = least_squares(fun, z0, jac=jac, bounds=(lo, hi), method="trf", x_scale="jac",
