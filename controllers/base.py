@@ -46,6 +46,16 @@ class ControlContext:
     def n_corners(self) -> int:
         return len(self.corners)
 
+    def sensor_slice(self, name: str) -> tuple[int, int]:
+        """(start, stop) of sensor ``name`` in a compiled controller's reading vector y (the declared sensors
+        concatenated in declared order); KeyError if the scenario does not declare it."""
+        start = 0
+        for sname, labels in self.sensors.items():
+            if sname == name:
+                return start, start + len(labels)
+            start += len(labels)
+        raise KeyError(name)
+
 
 class Controller:
     name = "controller"
@@ -69,6 +79,22 @@ class Controller:
 
     def signals(self) -> dict[str, np.ndarray]:
         return {}
+
+    # optional compiled kernel (see suspension_sim.compiled): a module-level numba @njit function
+    # (t, y, p, st, u) -> None doing step() for one car: y its readings (ControlContext.sensor_slice), p and st
+    # its rows of kernel_data(), u its command row (n_corners) to fill
+    kernel = None
+
+    def kernel_data(self) -> tuple[np.ndarray, np.ndarray]:
+        """(p, st): float64 C-contiguous arrays (n_cars, kp) and (n_cars, ks) from the current (reset) state."""
+        raise NotImplementedError
+
+    def kernel_signals(self) -> dict[str, tuple[int, int]]:
+        """{signal name: (start, stop)} with signals()[name] == st[:, start:stop] (stop = start + 1: 1-D)."""
+        return {}
+
+    def kernel_sync(self, st: np.ndarray) -> None:
+        """Write the kernel state back to the Python attributes after a compiled run (optional)."""
 
     def zeros(self) -> np.ndarray:
         return np.zeros((self.ctx.n_cars, self.ctx.n_corners))

@@ -54,3 +54,18 @@ class Actuator:
     def states(self) -> dict[str, np.ndarray]:
         """Internal states by name, each (n_cars, n_corners)."""
         return {}
+
+    # optional compiled kernels (see suspension_sim.compiled): module-level numba @njit functions for one corner
+    # of one car, same arithmetic as force()/advance(): kernel_force(cmd, s, v, t, dt, p, st) -> float and
+    # kernel_advance(cmd, s, v, t, dt, p, st) -> None
+    kernel_force = None
+    kernel_advance = None
+
+    def kernel_data(self) -> tuple[np.ndarray, np.ndarray]:
+        """(p, st): float64 C-contiguous arrays (n_cars, n_corners, kp) and (n_cars, n_corners, ks) from the
+        current (reset) parameters and state; the kernels update st[i, c] in place."""
+        raise NotImplementedError
+
+    def kernel_states(self) -> dict[str, int]:
+        """{state name: j} with states()[name][:, c] == st[:, c, j] ('force' may be left out)."""
+        return {}

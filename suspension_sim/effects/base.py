@@ -60,3 +60,16 @@ class Effect:
     def signals(self) -> dict[str, np.ndarray]:
         """Internal signals to log, each of shape (n_cars, k)."""
         return {}
+
+    # optional compiled kernel (see suspension_sim.compiled): a module-level numba @njit function
+    # (s, v, t, dt, p, st) -> float, the force of one corner of one car, same law and operation order as force()
+    kernel = None
+
+    def kernel_data(self) -> tuple[np.ndarray, np.ndarray]:
+        """(p, st): float64 C-contiguous arrays (n_cars, n_sel, kp) and (n_cars, n_sel, ks) for :attr:`kernel`,
+        taken from the current (reset) parameters and state; the kernel updates st[i, c] in place."""
+        raise NotImplementedError
+
+    def kernel_signals(self) -> dict[str, int]:
+        """{signal name: j} with signals()[name][:, c] == st[:, c, j]."""
+        return {}

@@ -75,6 +75,11 @@ class Sensor:
     def labels(self) -> list[str]:
         return [c or "value" for c in self.ctx.suffixes]
 
+    def kernel_field(self):
+        """(PlantState field, column indices) when the reading is columns of one plant quantity (the compiled
+        loop then reads it itself), else None."""
+        return None
+
 
 class SensorChannel:
     """One declared sensor: a type plus its measurement pipeline."""
