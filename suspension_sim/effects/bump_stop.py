@@ -3,12 +3,13 @@ from __future__ import annotations
 
 from typing import Optional
 
+import numba
 import numpy as np
 from pydantic import Field
 
 from ..components import Params
 from ..registry import EFFECTS
-from ._common import PerCornerNonNeg, PerCornerPos, corner_array
+from ._common import PerCornerNonNeg, PerCornerPos, corner_array, kernel_pack
 from .base import Effect
 
 
@@ -21,6 +22,27 @@ class BumpStopParams(Params):
     stiffness: PerCornerNonNeg = Field(40000.0, description="stop stiffness K_es in N/m")
     damping: PerCornerNonNeg = Field(0.0, description="stop damping in N·s/m, acting only while a stop is "
                                      "engaged, and never pulling")
+
+
+@numba.njit(cache=True)
+def _kernel(s, v, t, dt, p, st):
+    """``force`` for one corner; p = [g_c, g_e, k, c], st = [engaged]."""
+    pen_c = -p[0] - s
+    pen_e = s - p[1]
+    f_c = 0.0
+    f_e = 0.0
+    if pen_c > 0:
+        x = p[2] * pen_c - p[3] * v
+        f_c = x if x > 0.0 else 0.0  # np.maximum(0.0, x) (NaN propagates)
+        if x != x:
+            f_c = x
+    if pen_e > 0:
+        x = -p[2] * pen_e - p[3] * v
+        f_e = x if x < 0.0 else 0.0
+        if x != x:
+            f_e = x
+    st[0] = (1.0 if pen_c > 0 else 0.0) - (1.0 if pen_e > 0 else 0.0)
+    return f_c + f_e
 
 
 @EFFECTS.register("bump_stop")
@@ -68,3 +90,12 @@ class BumpStop(Effect):
     def signals(self):
         """``engaged``: +1 on the compression stop, −1 on the extension stop, 0 free."""
         return {"engaged": self.engaged}
+
+    kernel = staticmethod(_kernel)
+
+    def kernel_data(self):
+        return (kernel_pack(self, self.g_c, self.g_e, self.k, self.c),
+                kernel_pack(self, self.engaged))
+
+    def kernel_signals(self):
+        return {"engaged": 0}

@@ -1,18 +1,25 @@
 """Quadratic (orifice) damping on the suspension: F = −C_v·v·|v|."""
 from __future__ import annotations
 
+import numba
 import numpy as np
 from pydantic import Field
 
 from ..components import Params
 from ..registry import EFFECTS
-from ._common import PerCornerNonNeg, corner_array
+from ._common import PerCornerNonNeg, corner_array, kernel_pack
 from .base import Effect
 
 
 class QuadraticDampingParams(Params):
     c_v: PerCornerNonNeg = Field(250.0, description="velocity-squared damping coefficient C_v in N·s²/m² "
                                  "(one value, or one per corner)")
+
+
+@numba.njit(cache=True)
+def _kernel(s, v, t, dt, p, st):
+    """``force`` for one corner; p = [c_v]."""
+    return -p[0] * v * abs(v)
 
 
 @EFFECTS.register("quadratic_damping")
@@ -41,3 +48,8 @@ class QuadraticDamping(Effect):
 
     def force(self, s, v, t, dt):
         return -self.c_v * v * np.abs(v)
+
+    kernel = staticmethod(_kernel)
+
+    def kernel_data(self):
+        return kernel_pack(self, self.c_v), kernel_pack(self)
