@@ -2,11 +2,13 @@
 saturation (applied in that order to the commanded force)."""
 from __future__ import annotations
 
+import numba
 import numpy as np
 from pydantic import Field
 
 from ..components import Params
 from ..registry import ACTUATORS
+from ._common import kernel_pack, optional_array
 from .base import Actuator
 
 
@@ -15,6 +17,46 @@ class IdealParams(Params):
     rate_limit: float | None = Field(None, gt=0, description="|dF/dt| limit (N/s); none = unlimited")
     time_constant: float = Field(0.0, ge=0, description="first-order lag time constant (s); 0 = none")
     delay: float = Field(0.0, ge=0, description="pure delay (s), rounded to physics steps")
+
+
+# kernel layout (one corner): p = [lag?, a, rate?, dmax, sat?, max_force, n_delay]; st = [F, head, line[0..n_delay]]
+@numba.njit(cache=True)
+def _kernel_force(cmd, s, v, t, dt, p, st):
+    """``IdealActuator.force`` for one corner (same operations, same order)."""
+    u = cmd
+    nd = int(p[6])
+    if nd:
+        head = int(st[1])
+        st[2 + head] = cmd
+        head = (head + 1) % (nd + 1)
+        st[1] = head
+        u = st[2 + head]
+    F = st[0]
+    if p[0] != 0.0:
+        a = p[1]
+        u = a * F + (1 - a) * u
+    if p[2] != 0.0:
+        dmax = p[3]
+        d = u - F
+        if d < -dmax:  # np.clip (NaN propagates)
+            d = -dmax
+        elif d > dmax:
+            d = dmax
+        u = F + d
+    if p[4] != 0.0:
+        fm = p[5]
+        if u < -fm:
+            u = -fm
+        elif u > fm:
+            u = fm
+    st[0] = u
+    return u
+
+
+@numba.njit(cache=True)
+def _kernel_advance(cmd, s, v, t, dt, p, st):
+    """``IdealActuator.advance`` (nothing to do: the state changes in ``force``)."""
+    return
 
 
 @ACTUATORS.register("ideal")
@@ -60,3 +102,21 @@ class IdealActuator(Actuator):
 
     def states(self):
         return {"force": self.F}
+
+    kernel_force = staticmethod(_kernel_force)
+    kernel_advance = staticmethod(_kernel_advance)
+
+    def kernel_data(self):
+        """p = [lag?, a, rate?, dmax, sat?, max_force, n_delay] (the flags and the delay-line length are
+        ensemble-wide, as in :meth:`force`); st = [F, head, delay line (n_delay + 1)]."""
+        ctx, p = self.ctx, self.p
+        dmax = optional_array(p.rate_limit, 0.0) * ctx.dt if self.rate else 0.0
+        fmax = optional_array(p.max_force, 0.0) if self.sat else 0.0
+        kp = kernel_pack(ctx, float(self.lag), self._a, float(self.rate), dmax, float(self.sat), fmax,
+                         float(self.n_delay))
+        line = [self._line[j] for j in range(self.n_delay + 1)]
+        st = kernel_pack(ctx, self.F, float(self._head), *line)
+        return kp, st
+
+    def kernel_states(self):
+        return {"force": 0}
