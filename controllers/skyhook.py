@@ -10,6 +10,7 @@ the force is kept only when it opposes the travel rate, i.e. F·(ż_body − ż_
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 from pydantic import Field
 
@@ -23,6 +24,31 @@ class SkyhookParams(Params):
     c_sky: float = Field(2500.0, ge=0, description="skyhook damping, N·s/m")
     c_ground: float = Field(0.0, ge=0, description="groundhook damping, N·s/m (needs wheel_vel)")
     semi_active: bool = Field(False, description="clip to dissipative forces (needs travel_rate)")
+
+
+# kernel parameter row: c_sky, c_ground, groundhook on (1/0), semi-active on (1/0), offsets in y of
+# corner_body_vel, wheel_vel, travel_rate (-1 when not used)
+_P_CSKY, _P_CGROUND, _P_GROUND, _P_SEMI, _P_VB, _P_WV, _P_VR = range(7)
+
+
+@numba.njit(cache=True)
+def _kernel(t, y, p, st, u):
+    """Compiled ``Skyhook.step`` for one car (same operations in the same order as the numpy law)."""
+    c_sky = p[_P_CSKY]
+    c_ground = p[_P_CGROUND]
+    ground = p[_P_GROUND] != 0.0
+    semi = p[_P_SEMI] != 0.0
+    ovb = int(p[_P_VB])
+    owv = int(p[_P_WV])
+    ovr = int(p[_P_VR])
+    for c in range(u.shape[0]):
+        f = -c_sky * y[ovb + c]
+        if ground:
+            f = f + c_ground * y[owv + c]
+        if semi:
+            if not (f * y[ovr + c] <= 0):
+                f = 0.0
+        u[c] = f
 
 
 @CONTROLLERS.register("skyhook")
@@ -40,6 +66,8 @@ class Skyhook(Controller):
             req.append("travel_rate")
         return req
 
+    kernel = staticmethod(_kernel)
+
     def _get(self, y, name):
         return y[name] if name in y else y[f"state.{name}"]
 
@@ -52,3 +80,26 @@ class Skyhook(Controller):
             vr = self._get(y, "travel_rate")
             f = np.where(f * vr <= 0, f, 0.0)
         return f
+
+    def kernel_data(self):
+        n = self.ctx.n_cars
+        ground = bool(np.any(self.p.c_ground > 0))
+        semi = bool(self.p.semi_active)  # as in step(): one flag for the whole ensemble
+
+        def offset(name, used):
+            if not used:
+                return -1.0
+            try:
+                return float(self.ctx.sensor_slice(name)[0])
+            except KeyError:  # read from the full plant state (controller.full_state): not in the kernel's y
+                raise NotImplementedError(f"skyhook kernel needs the declared sensor {name!r}") from None
+
+        p = np.empty((n, 7))
+        p[:, _P_CSKY] = np.broadcast_to(np.asarray(self.p.c_sky, dtype=float).reshape(-1), (n,))
+        p[:, _P_CGROUND] = np.broadcast_to(np.asarray(self.p.c_ground, dtype=float).reshape(-1), (n,))
+        p[:, _P_GROUND] = float(ground)
+        p[:, _P_SEMI] = float(semi)
+        p[:, _P_VB] = offset("corner_body_vel", True)
+        p[:, _P_WV] = offset("wheel_vel", ground)
+        p[:, _P_VR] = offset("travel_rate", semi)
+        return np.ascontiguousarray(p), np.zeros((n, 0))
