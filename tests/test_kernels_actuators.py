@@ -98,3 +98,111 @@ def test_ideal_kernel_is_exact(case):
         if not any(kw.get(k) for k in ("max_force", "rate_limit", "time_constant")):
             lag = act.n_delay
             np.testing.assert_array_equal(F[lag:, i], cmd[:n_steps - lag, i])  # pure (ensemble-wide) delay
+
+
+def relative_errors(act, cmd, s, v, dt=DT):
+    """Like check_actuator, but per quantity: {name: max |kernel − Python| / max |Python|} for the force and
+    every kernel state (for kernels that call exp/tanh, which numba and numpy may round differently)."""
+    py = copy.deepcopy(act)
+    py.reset()
+    kn = copy.deepcopy(act)
+    kn.reset()
+    p, st = kn.kernel_data()
+    idx = kn.kernel_states()
+    diff, scale = {}, {}
+
+    def acc(name, ref, got):
+        ref = np.broadcast_to(np.asarray(ref, dtype=float), got.shape)
+        diff[name] = max(diff.get(name, 0.0), float(np.max(np.abs(ref - got))))
+        scale[name] = max(scale.get(name, 0.0), float(np.max(np.abs(ref))))
+
+    for k, (u, sk, vk) in enumerate(zip(cmd, s, v)):
+        t = k * dt
+        f_py = np.array(py.force(u, sk, vk, t), dtype=float)
+        py.advance(u, sk, vk, t, dt)
+        f_kn = np.empty(u.shape)
+        for i in range(u.shape[0]):
+            for c in range(u.shape[1]):
+                f_kn[i, c] = kn.kernel_force(u[i, c], sk[i, c], vk[i, c], t, dt, p[i, c], st[i, c])
+                kn.kernel_advance(u[i, c], sk[i, c], vk[i, c], t, dt, p[i, c], st[i, c])
+        acc("force()", f_py, f_kn)
+        sp = py.states()
+        for name, j in idx.items():
+            acc(name, sp[name], st[:, :, j])
+    return {name: diff[name] / scale[name] if scale[name] > 0 else diff[name] for name in diff}
+
+
+# ---------------------------------------------------------------------------------------------------------
+# hydraulic: spool lag with end stops, trapezoidal pressure sub-steps (valve both ways, |P_L| beyond P_s),
+# optional tanh seal friction
+from suspension_sim.actuators.hydraulic import HydraulicActuator  # noqa: E402
+
+HYD_CASES = {
+    "single": ([dict(spool_time_constant=0.003)], 1),
+    "ensemble": ([dict(spool_time_constant=0.003, spool_limit=0.004, initial_pressure=1e6),
+                  dict(spool_limit=None, beta=3.0, area=4e-4, max_substep=1e-4),
+                  dict(spool_time_constant=0.01, spool_limit=0.006, supply_pressure=2e7, gamma=1e9)], 4),
+    "friction": ([dict(spool_time_constant=0.003, friction_max=250.0),
+                  dict(friction_max=0.0, friction_velocity=0.02, spool_limit=0.005),
+                  dict(spool_time_constant=0.005, friction_max=100.0, friction_velocity=0.005)], 2),
+}
+
+
+def hydraulic_inputs(shape, n_steps=600, dt=DT, seed=2):
+    """Spool commands: 0 for the first steps (closed valve, x_v = 0 exactly), then held random levels up to
+    ±2.5 cm (beyond the end stops, both ways); travel rate: a smooth random signal with bursts up to
+    ±0.6 m/s (which drive |P_L| beyond P_s against the closed or opposing valve); travel = its integral."""
+    rng = np.random.default_rng(seed)
+    cmd = held(rng, n_steps, shape, -0.025, 0.025, hold=40)
+    cmd[:20] = 0.0
+    v = np.cumsum(rng.normal(0, 0.02, (n_steps,) + shape), axis=0)
+    v[100:130] += 0.6
+    v[300:330] -= 0.6
+    s = np.concatenate([np.zeros((1,) + shape), np.cumsum(v * dt, axis=0)[:-1]])
+    return cmd, s, v
+
+
+def check_hydraulic_branches(act, cmd, s, v, dt=DT):
+    _, st = run_python(act, cmd, s, v, dt)
+    P, xv = st["load_pressure"], st["spool_position"]
+    Ps = np.broadcast_to(act.p.supply_pressure, xv.shape[1:])
+    assert np.all(xv[0] == 0.0)  # the closed-valve branch (sgn x_v = 0)
+    assert np.all(np.max(xv, axis=0) > 0) and np.all(np.min(xv, axis=0) < 0)  # valve opened both ways
+    assert np.all(np.max(np.abs(P), axis=0) > 0.5 * Ps)  # pressure builds up
+    assert np.any(np.sign(xv) * P > Ps)  # w3 with P_s − sgn(x_v)·P_L < 0
+    lim = act.xlim
+    hit = np.isfinite(lim)
+    assert np.any(hit)
+    assert np.all((np.max(np.abs(xv), axis=0) == lim)[hit])  # end stops reached
+
+
+@pytest.mark.parametrize("case", ["single", "ensemble"])
+def test_hydraulic_kernel_is_exact(case):
+    """Without friction the kernels are bit-identical: the spool's exp factors at the physics step are
+    numpy's own values, precomputed in kernel_data; the rest is + − × ÷ and sqrt (correctly rounded)."""
+    params, nc = HYD_CASES[case]
+    act = build(HydraulicActuator, params, nc)
+    kernel_layout_ok(act)
+    cmd, s, v = hydraulic_inputs((len(params), nc))
+    check_hydraulic_branches(act, cmd, s, v)
+    assert check_actuator(act, cmd, s, v) == 0.0
+
+
+def test_hydraulic_kernel_friction_and_other_step():
+    """tanh (friction) and exp (spool, when advance gets a dt other than the physics step) are numba's libm
+    against numpy's SIMD versions: within 1e-12 relative; everything without them stays exact."""
+    params, nc = HYD_CASES["friction"]
+    act = build(HydraulicActuator, params, nc)
+    cmd, s, v = hydraulic_inputs((len(params), nc), n_steps=400)
+    check_hydraulic_branches(act, cmd, s, v)
+    rel = relative_errors(act, cmd, s, v)
+    assert rel["load_pressure"] == 0.0 and rel["spool_position"] == 0.0 and rel["hydraulic_force"] == 0.0
+    assert rel["friction_force"] <= 1e-12 and rel["force"] <= 1e-12 and rel["force()"] <= 1e-12
+    F, _ = run_python(act, cmd, s, v)
+    assert np.max(np.abs(F)) > 0
+    # advance with dt = half the context's physics step: exp(−s/τ) from math.exp, sub-step count recomputed
+    params, nc = HYD_CASES["ensemble"]
+    act = build(HydraulicActuator, params, nc)
+    cmd, s, v = hydraulic_inputs((len(params), nc), n_steps=400, dt=DT / 2)
+    rel = relative_errors(act, cmd, s, v, dt=DT / 2)
+    assert max(rel.values()) <= 1e-12, rel

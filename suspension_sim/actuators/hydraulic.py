@@ -35,11 +35,13 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 from pydantic import Field
 
 from ..components import Params
 from ..registry import ACTUATORS
+from ._common import kernel_pack
 from .base import Actuator
 
 
@@ -79,6 +81,95 @@ def w3(P, xv, Ps):
     """Valve flow factor sgn(P_s − sgn(x_v)·P_L)·sqrt|P_s − sgn(x_v)·P_L| (Lin & Kanellakopoulos Eq. 7)."""
     D = Ps - np.sign(xv) * P
     return np.sign(D) * np.sqrt(np.abs(D))
+
+
+# ---------------------------------------------------------------------------------------------------------
+# compiled kernels (see suspension_sim.compiled): the same operations as force()/advance() for one corner.
+# p = [alpha, area, beta, gamma, P_s, tau, xlim, friction?, friction_max, friction_velocity, ctx.dt, n_sub,
+#      min max_substep, e_1 .. e_nsub]  with e_k = exp(-(k·h)/tau) at h = ctx.dt/n_sub, evaluated by numpy in
+#      kernel_data exactly as _spool does (so the kernel is bit-identical at the physics step; another dt falls
+#      back to math.exp, within an ulp of numpy's exp);
+# st = [P_L, x_v, G, G set?, F, A·P_L, F_f]
+_HP = 13  # index of e_1 in p
+
+
+@numba.njit(cache=True)
+def _ksign(x):
+    if x > 0.0:
+        return 1.0
+    if x < 0.0:
+        return -1.0
+    if x == 0.0:
+        return 0.0
+    return x  # NaN
+
+
+@numba.njit(cache=True)
+def _kernel_force(cmd, s, v, t, dt, p, st):
+    """``HydraulicActuator.force`` for one corner."""
+    if st[3] == 0.0:
+        st[2] = st[0] + p[0] * p[1] * s
+        st[3] = 1.0
+    P = st[2] - p[0] * p[1] * s
+    st[0] = P
+    Fh = p[1] * P
+    st[5] = Fh
+    if p[7] != 0.0:
+        st[6] = p[8] * math.tanh(v / p[9])
+    F = Fh - st[6]
+    st[4] = F
+    return F
+
+
+@numba.njit(cache=True)
+def _kernel_advance(cmd, s, v, t, dt, p, st):
+    """``HydraulicActuator.advance`` for one corner (spool lag, trapezoidal pressure sub-steps)."""
+    alpha, area, beta, gamma, Ps, tau, xlim = p[0], p[1], p[2], p[3], p[4], p[5], p[6]
+    u = cmd
+    if st[3] == 0.0:
+        st[2] = st[0] + alpha * area * s
+        st[3] = 1.0
+    exact = dt == p[10]
+    if exact:
+        n_sub = int(p[11])
+    else:
+        n_sub = max(1, int(math.ceil(dt / p[12] - 1e-9)))
+    h = dt / n_sub
+    ar = alpha * area * v
+    P = st[2] - alpha * area * s
+    xv = st[1]
+    xv0 = xv
+    for i in range(n_sub):
+        # _spool(u, (i + 1)·h)
+        if exact:
+            e = p[_HP + i]
+        else:
+            e = math.exp(-((i + 1) * h) / tau)
+        xv1 = u + (xv - u) * e
+        if xv1 < -xlim:
+            xv1 = -xlim
+        elif xv1 > xlim:
+            xv1 = xlim
+        # _deriv(P, xv0, ar), w3(P, xv0, P_s)
+        D = Ps - _ksign(xv0) * P
+        f0 = -beta * P - ar + gamma * xv0 * (_ksign(D) * math.sqrt(abs(D)))
+        # _trapezoid_step(P, f0, xv1, h, ar)
+        a = 1.0 + 0.5 * h * beta
+        K = P + 0.5 * h * f0 - 0.5 * h * ar
+        sig = _ksign(xv1)
+        b = 0.5 * h * gamma * abs(xv1)
+        c = a * Ps - sig * K
+        S = 2.0 * c / (b + math.sqrt(b * b + 4.0 * a * abs(c)))
+        if sig != 0.0:
+            P = sig * (Ps - S * abs(S))
+        else:
+            P = K / a
+        xv0 = xv1
+    st[1] = xv0
+    travel_end = s + v * dt
+    st[2] = P + alpha * area * travel_end
+    st[0] = P
+    st[5] = area * P
 
 
 @ACTUATORS.register("hydraulic")
@@ -150,3 +241,23 @@ class HydraulicActuator(Actuator):
     def states(self):
         return {"load_pressure": self.P, "spool_position": self.xv, "hydraulic_force": self.p.area * self.P,
                 "friction_force": self.Ff, "force": self.F}
+
+    kernel_force = staticmethod(_kernel_force)
+    kernel_advance = staticmethod(_kernel_advance)
+
+    def kernel_data(self):
+        """(p, st) of the kernels; layout in the comment above ``_kernel_force``."""
+        p, ctx = self.p, self.ctx
+        h = ctx.dt / self.n_sub
+        e = [np.exp(-((i + 1) * h) / p.spool_time_constant) for i in range(self.n_sub)]  # as in _spool
+        kp = kernel_pack(ctx, p.alpha, p.area, p.beta, p.gamma, p.supply_pressure, p.spool_time_constant,
+                         self.xlim, float(np.any(p.friction_max > 0)), p.friction_max, p.friction_velocity,
+                         ctx.dt, float(self.n_sub), float(np.min(p.max_substep)), *e)
+        G = np.zeros_like(self.P) if self.G is None else self.G
+        st = kernel_pack(ctx, self.P, self.xv, G, float(self.G is not None), self.F, self.p.area * self.P,
+                         self.Ff)
+        return kp, st
+
+    def kernel_states(self):
+        return {"load_pressure": 0, "spool_position": 1, "hydraulic_force": 5, "friction_force": 6,
+                "force": 4}
