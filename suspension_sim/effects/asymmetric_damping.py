@@ -3,13 +3,14 @@ from __future__ import annotations
 
 from typing import Optional
 
+import numba
 import numpy as np
 from pydantic import Field, field_validator, model_validator
 
 from ..components import Params
 from ..errors import ScenarioError
 from ..registry import EFFECTS
-from ._common import PerCornerNonNeg, corner_array
+from ._common import PerCornerNonNeg, corner_array, kernel_pack
 from .base import Effect
 
 
@@ -51,6 +52,47 @@ def interp_linear_extrap(x: np.ndarray, xp: np.ndarray, fp: np.ndarray) -> np.nd
     hi_slope = (fp[-1] - fp[-2]) / (xp[-1] - xp[-2])
     y = np.where(x < xp[0], fp[0] + lo_slope * (x - xp[0]), y)
     return np.where(x > xp[-1], fp[-1] + hi_slope * (x - xp[-1]), y)
+
+
+@numba.njit(cache=True)
+def _kernel(s, v, t, dt, p, st):
+    """``force`` for one corner.  p = [n, c_comp, c_reb, xp_0 … xp_{m−1}, fp_0 … fp_{m−1}]: n = number of map
+    points of this car (0 = no map: coefficients), m >= n the padded map length.  The map branch repeats
+    ``np.interp`` (bisection to xp[j] <= v < xp[j+1], exact hits return fp[j]) and the linear extrapolation
+    of :func:`interp_linear_extrap` operation by operation."""
+    n = int(p[0])
+    if n == 0:
+        c = p[2] if v > 0 else p[1]
+        return -c * v
+    m = (p.shape[0] - 3) // 2
+    x0 = 3
+    f0 = 3 + m
+    if v < p[x0]:
+        lo_slope = (p[f0 + 1] - p[f0]) / (p[x0 + 1] - p[x0])
+        return -(p[f0] + lo_slope * (v - p[x0]))
+    if v > p[x0 + n - 1]:
+        hi_slope = (p[f0 + n - 1] - p[f0 + n - 2]) / (p[x0 + n - 1] - p[x0 + n - 2])
+        return -(p[f0 + n - 1] + hi_slope * (v - p[x0 + n - 1]))
+    if v >= p[x0 + n - 1]:
+        return -p[f0 + n - 1]
+    lo = 0
+    hi = n - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if p[x0 + mid] <= v:
+            lo = mid
+        else:
+            hi = mid
+    j = lo
+    if p[x0 + j] == v:
+        return -p[f0 + j]
+    slope = (p[f0 + j + 1] - p[f0 + j]) / (p[x0 + j + 1] - p[x0 + j])
+    y = slope * (v - p[x0 + j]) + p[f0 + j]
+    if y != y:  # as np.interp: non-finite table values
+        y = slope * (v - p[x0 + j + 1]) + p[f0 + j + 1]
+        if y != y and p[f0 + j] == p[f0 + j + 1]:
+            y = p[f0 + j]
+    return -y
 
 
 @EFFECTS.register("asymmetric_damping")
@@ -97,6 +139,22 @@ class AsymmetricDamping(Effect):
         for i, tab in enumerate(self.tables):
             out[i] = -interp_linear_extrap(v[i], tab[:, 0], tab[:, 1])
         return out
+
+
+
+    kernel = staticmethod(_kernel)
+
+    def kernel_data(self):
+        n, k = self.ctx.n_cars, len(self.ctx.corners)
+        m = 0 if self.tables is None else max(len(tab) for tab in self.tables)
+        p = np.zeros((n, k, 3 + 2 * m))
+        p[:, :, 1] = self.c_comp
+        p[:, :, 2] = self.c_reb
+        for i, tab in enumerate(self.tables or []):
+            p[i, :, 0] = len(tab)
+            p[i, :, 3:3 + len(tab)] = tab[:, 0]
+            p[i, :, 3 + m:3 + m + len(tab)] = tab[:, 1]
+        return p, kernel_pack(self)
 
 
 def _per_car(tab) -> bool:

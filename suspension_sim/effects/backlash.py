@@ -1,18 +1,30 @@
 """Backlash: a spring connected through free play (a play operator)."""
 from __future__ import annotations
 
+import numba
 import numpy as np
 from pydantic import Field
 
 from ..components import Params
 from ..registry import EFFECTS
-from ._common import PerCornerNonNeg, corner_array
+from ._common import PerCornerNonNeg, corner_array, kernel_pack
 from .base import Effect
 
 
 class BacklashParams(Params):
     stiffness: PerCornerNonNeg = Field(5000.0, description="stiffness k_b of the spring behind the play in N/m")
     play: PerCornerNonNeg = Field(0.002, description="half-width b of the play in m (total free motion 2·b)")
+
+
+@numba.njit(cache=True)
+def _kernel(s, v, t, dt, p, st):
+    """``force`` for one corner; p = [k_b, b], st = [y]."""
+    hi = s + p[1]
+    y = hi if hi < st[0] else st[0]  # np.minimum(s + b, y)
+    lo = s - p[1]
+    y = lo if lo > y else y  # np.maximum(s - b, ...)
+    st[0] = y
+    return -p[0] * y
 
 
 @EFFECTS.register("backlash")
@@ -46,3 +58,11 @@ class Backlash(Effect):
     def signals(self):
         """``y``: position of the driven side of the play (m)."""
         return {"y": self.y}
+
+    kernel = staticmethod(_kernel)
+
+    def kernel_data(self):
+        return kernel_pack(self, self.k, self.b), kernel_pack(self, self.y)
+
+    def kernel_signals(self):
+        return {"y": 0}

@@ -4,12 +4,13 @@ from __future__ import annotations
 import warnings
 from typing import Literal, Optional
 
+import numba
 import numpy as np
 from pydantic import Field, model_validator
 
 from ..components import Params
 from ..registry import EFFECTS
-from ._common import PerCornerNonNeg, PerCornerPos, corner_array, reduced_mass
+from ._common import PerCornerNonNeg, PerCornerPos, corner_array, reduced_mass, kernel_pack
 from .base import Effect
 
 
@@ -26,6 +27,28 @@ class CoulombFrictionParams(Params):
         if self.law is None:
             self.law = "tanh" if "v_eps" in self.model_fields_set else "stick_slip"
         return self
+
+
+@numba.njit(cache=True)
+def _kernel(s, v, t, dt, p, st):
+    """``force`` for one corner; p = [F_c, m_r, v_eps, tanh law (1/0)], st = [F, v_prev, has v_prev (1/0),
+    stuck].  np.tanh here (libm) and in numpy (SIMD) may differ by an ulp."""
+    Fc = p[0]
+    if p[3] != 0.0:
+        F = -Fc * np.tanh(v / p[2])
+    else:
+        a_other = 0.0
+        if st[2] != 0.0:
+            a_other = (v - st[1]) / dt - st[0] / p[1]
+        x = -p[1] * (v / dt + a_other)
+        lo = -Fc
+        F = lo if x < lo else x  # np.clip = min(max(x, lo), hi)
+        F = Fc if F > Fc else F
+    st[0] = F
+    st[1] = v
+    st[2] = 1.0
+    st[3] = 1.0 if abs(F) < Fc * (1 - 1e-9) else 0.0
+    return F
 
 
 @EFFECTS.register("coulomb_friction")
@@ -103,3 +126,15 @@ class CoulombFriction(Effect):
     def signals(self):
         """``force``: the friction force (N); ``stuck``: 1 while the friction holds below F_c."""
         return {"force": self.F, "stuck": (np.abs(self.F) < self.Fc * (1 - 1e-9)).astype(float)}
+
+    kernel = staticmethod(_kernel)
+
+    def kernel_data(self):
+        p = kernel_pack(self, self.Fc, self.m_r, self.v_eps, self.tanh.astype(float))
+        has = self.v_prev is not None
+        st = kernel_pack(self, self.F, self.v_prev if has else 0.0, float(has),
+                         self.signals()["stuck"])
+        return p, st
+
+    def kernel_signals(self):
+        return {"force": 0, "stuck": 3}

@@ -1,17 +1,25 @@
 """Cubic (hardening or softening) suspension stiffness: F = −k3·s³."""
 from __future__ import annotations
 
+import numba
 from pydantic import Field
 
 from ..components import Params
 from ..registry import EFFECTS
-from ._common import PerCornerReal, corner_array
+from ._common import PerCornerReal, corner_array, kernel_pack
 from .base import Effect
 
 
 class CubicStiffnessParams(Params):
     k3: PerCornerReal = Field(1.0e6, description="cubic stiffness in N/m³ (> 0 hardening, < 0 softening; "
                               "one value, or one per corner)")
+
+
+@numba.njit(cache=True)
+def _kernel(s, v, t, dt, p, st):
+    """``force`` for one corner; p = [k3].  ``s ** 3.0`` is libm pow; numpy's ``s ** 3`` (SIMD pow) may
+    differ by an ulp."""
+    return -p[0] * s ** 3.0
 
 
 @EFFECTS.register("cubic_stiffness")
@@ -39,3 +47,8 @@ class CubicStiffness(Effect):
 
     def force(self, s, v, t, dt):
         return -self.k3 * s ** 3
+
+    kernel = staticmethod(_kernel)
+
+    def kernel_data(self):
+        return kernel_pack(self, self.k3), kernel_pack(self)

@@ -1,12 +1,13 @@
 """Bouc–Wen hysteresis on the suspension: a rate-independent, saturating hysteretic force."""
 from __future__ import annotations
 
+import numba
 import numpy as np
 from pydantic import Field
 
 from ..components import Params
 from ..registry import EFFECTS
-from ._common import PerCornerNonNeg, PerCornerPos, corner_array
+from ._common import PerCornerNonNeg, PerCornerPos, corner_array, kernel_pack
 from .base import Effect
 
 
@@ -29,6 +30,28 @@ def bouc_wen_update(w: np.ndarray, ds: np.ndarray, x_y: np.ndarray) -> np.ndarra
     a = a - lin
     u = np.where(a > 0, 1.0 - (1.0 - u) * np.exp(-a), u)
     return sg * u
+
+
+@numba.njit(cache=True)
+def _kernel(s, v, t, dt, p, st):
+    """``force`` for one corner; p = [F_h, x_y], st = [w, s_prev, has s_prev (1/0)]; the update is
+    :func:`bouc_wen_update` operation by operation (np.exp here is libm: may differ from numpy's by an ulp)."""
+    if st[2] != 0.0:
+        ds = s - st[1]
+        sg = 1.0 if ds >= 0 else -1.0
+        a = abs(ds) / p[1]
+        u = sg * st[0]
+        mu = -u
+        mu = mu if mu > 0.0 else 0.0  # np.maximum(-u, 0.0)
+        lin = a if a < mu else mu  # np.minimum(a, ...)
+        u = u + lin
+        a = a - lin
+        if a > 0:
+            u = 1.0 - (1.0 - u) * np.exp(-a)
+        st[0] = sg * u
+    st[1] = s
+    st[2] = 1.0
+    return -p[0] * st[0]
 
 
 @EFFECTS.register("hysteresis")
@@ -68,3 +91,13 @@ class Hysteresis(Effect):
     def signals(self):
         """``w``: the Bouc–Wen state (−1 … 1)."""
         return {"w": self.w}
+
+    kernel = staticmethod(_kernel)
+
+    def kernel_data(self):
+        has = self.s_prev is not None
+        return (kernel_pack(self, self.F, self.xy),
+                kernel_pack(self, self.w, self.s_prev if has else 0.0, float(has)))
+
+    def kernel_signals(self):
+        return {"w": 0}

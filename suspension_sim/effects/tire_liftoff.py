@@ -1,10 +1,20 @@
 """Tire lift-off: the tire pushes but never pulls (total tire force ≥ 0)."""
 from __future__ import annotations
 
+import numba
 import numpy as np
 
 from ..registry import EFFECTS
+from ._common import kernel_pack
 from .base import Effect
+
+
+@numba.njit(cache=True)
+def _kernel(s, v, t, dt, p, st):
+    """``force`` for one corner; p = [k_t, c_t, F_static], st = [lifted]."""
+    pull = p[0] * s + p[1] * v - p[2]
+    st[0] = 1.0 if pull > 0 else 0.0
+    return pull if pull > 0.0 else 0.0  # np.maximum(0.0, pull)
 
 
 @EFFECTS.register("tire_liftoff")
@@ -47,3 +57,11 @@ class TireLiftoff(Effect):
     def signals(self):
         """``lifted``: 1 while the wheel is off the road."""
         return {"lifted": self.lifted}
+
+    kernel = staticmethod(_kernel)
+
+    def kernel_data(self):
+        return kernel_pack(self, self.kt, self.ct, self.Fs), kernel_pack(self, self.lifted)
+
+    def kernel_signals(self):
+        return {"lifted": 0}

@@ -10,12 +10,13 @@ equilibrium is k + Δk(t) and the static sag is unchanged.
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 from pydantic import Field
 
 from ..components import Params
 from ..registry import EFFECTS
-from ._common import PerCornerReal, corner_array
+from ._common import PerCornerReal, corner_array, kernel_pack
 from .base import Effect
 
 
@@ -24,6 +25,15 @@ class VaryingStiffnessParams(Params):
     frequency: float = Field(1.0, ge=0, description="Hz")
     phase: float = Field(0.0, description="rad")
     offset: PerCornerReal = Field(0.0, description="N/m, constant stiffness change")
+
+
+@numba.njit(cache=True)
+def _kernel(s, v, t, dt, p, st):
+    """``force`` for one corner; p = [offset, A, 2πf, φ], st = [dk] (np.sin here is libm: may differ from
+    numpy's by an ulp)."""
+    dk = p[0] + p[1] * np.sin(p[2] * t + p[3])
+    st[0] = dk
+    return -dk * s
 
 
 @EFFECTS.register("varying_stiffness")
@@ -52,3 +62,11 @@ class VaryingStiffness(Effect):
 
     def signals(self):
         return {"dk": self.dk}
+
+    kernel = staticmethod(_kernel)
+
+    def kernel_data(self):
+        return kernel_pack(self, self.off, self.amp, self.w, self.ph), kernel_pack(self, self.dk)
+
+    def kernel_signals(self):
+        return {"dk": 0}
