@@ -7,6 +7,7 @@ leading axis ``n_cars``.
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 from scipy.signal import cont2discrete
 
@@ -57,6 +58,22 @@ class FilterBank:
     def update(self, u) -> None:
         u = np.asarray(u, dtype=float).reshape(self.x.shape[0], self.x.shape[1], -1)
         self.x = np.einsum("ij,nkj->nki", self.Ad, self.x) + np.einsum("ij,nkj->nki", self.Bd, u)
+
+    def kernel_pack(self, lay, hp: int) -> int:
+        """Store this FilterBank in a KernelLayout: matrices in p, state (per car) and scratch in st, the header
+        at the reserved p columns hp..hp+FB_HEADER−1.  Returns the state's first st column."""
+        n, k, ns = self.x.shape
+        nin, nout = self.Bd.shape[1], self.Cd.shape[0]
+        po = lay.p(np.concatenate([self.Ad.ravel(), self.Bd.ravel(), self.Cd.ravel(), self.Dd.ravel()]))
+        so = lay.st(self.x.reshape(n, k * ns), per_car=True)
+        sc = lay.st(np.zeros(ns))
+        lay.set_p(hp, [po, ns, nin, nout, so, sc, float(np.any(self.Dd))])
+        return so
+
+    def kernel_sync(self, st: np.ndarray, so: int) -> None:
+        """Take the filter state back from a kernel's st rows (column so on, as kernel_pack placed it)."""
+        n, k, ns = self.x.shape
+        self.x = np.array(st[:, so:so + k * ns]).reshape(n, k, ns)
 
 
 def rls_update(theta, P, phi, target, q, trace_max: float):
@@ -247,3 +264,136 @@ class DiscreteMRAC:
     @property
     def theta_unscaled(self):
         return self.theta * self.sc[None, :, None]
+
+
+# ---------------------------------------------------------------------------------------------------------
+# Compiled kernels (see suspension_sim.compiled): scalar numba helpers for one car.  The rows p (parameters)
+# and st (state) of a thesis controller are built by KernelLayout; a FilterBank stores its discrete
+# matrices in p and its state in st (FilterBank.kernel_pack) and is run by fb_y / fb_yu / fb_update.
+#
+# Summation order.  np.einsum (optimize=False, the default) sums a reduction over an axis that is
+# contiguous in both of two operands with the baseline-SIMD loop sum_of_products_contig_contig_outstride0_two:
+# on x86-64 (baseline SSE2, 2 doubles per vector, multiply then add, no FMA) the even terms accumulate in
+# lane 0 and the odd terms in lane 1, unrolled by 8 (terms i+6, i+4, i+2, i of a block of 8 added in that
+# order), and the result is lane0 + lane1 (k_dot).  A strided reduction (e.g. over p of theta (n, p, m)
+# with m > 1) and a three-operand product are summed in order from 0.0 (k_dot_seq).  tests/
+# test_kernels_thesis.py checks both rules against np.einsum on random data, so a numpy build that sums
+# differently is caught there.
+# ---------------------------------------------------------------------------------------------------------
+@numba.njit(cache=True)
+def k_dot(a, ao, b, bo, n):
+    """Σ_j a[ao + j]·b[bo + j], j < n, in np.einsum's order for a reduction contiguous in both operands."""
+    l0 = 0.0
+    l1 = 0.0
+    i = 0
+    while n - i >= 8:
+        l0 = (((l0 + a[ao + i + 6] * b[bo + i + 6]) + a[ao + i + 4] * b[bo + i + 4])
+              + a[ao + i + 2] * b[bo + i + 2]) + a[ao + i] * b[bo + i]
+        l1 = (((l1 + a[ao + i + 7] * b[bo + i + 7]) + a[ao + i + 5] * b[bo + i + 5])
+              + a[ao + i + 3] * b[bo + i + 3]) + a[ao + i + 1] * b[bo + i + 1]
+        i += 8
+    while i < n:
+        l0 = l0 + a[ao + i] * b[bo + i]
+        if i + 1 < n:
+            l1 = l1 + a[ao + i + 1] * b[bo + i + 1]
+        i += 2
+    return l0 + l1
+
+
+@numba.njit(cache=True)
+def k_dot_seq(a, ao, sa, b, bo, sb, n):
+    """Σ_j a[ao + j·sa]·b[bo + j·sb] summed in order from 0.0 (np.einsum's order for a strided reduction)."""
+    acc = 0.0
+    for j in range(n):
+        acc += a[ao + j * sa] * b[bo + j * sb]
+    return acc
+
+
+# FilterBank header in p (7 values at hp): matrices offset, n states, n inputs, n outputs, state offset in
+# st, scratch offset in st (n states), D ≠ 0.  Matrices at po: Ad (ns·ns), Bd (ns·nin), Cd (nout·ns),
+# Dd (nout·nin), row-major; the state of copy c at st[so + c·ns : so + (c + 1)·ns].
+FB_HEADER = 7
+
+
+@numba.njit(cache=True)
+def fb_y(p, st, hp, c, o):
+    """Output o of copy c without feed-through, Cd x (FilterBank.output())."""
+    po = int(p[hp])
+    ns = int(p[hp + 1])
+    nin = int(p[hp + 2])
+    so = int(p[hp + 4])
+    return k_dot(p, po + ns * ns + ns * nin + o * ns, st, so + c * ns, ns)
+
+
+@numba.njit(cache=True)
+def fb_yu(p, st, hp, c, o, u, uo):
+    """Output o of copy c with the inputs u[uo : uo + nin] (FilterBank.output(u)): Cd x + Dd u."""
+    y = fb_y(p, st, hp, c, o)
+    if p[hp + 6] != 0.0:
+        po = int(p[hp])
+        ns = int(p[hp + 1])
+        nin = int(p[hp + 2])
+        nout = int(p[hp + 3])
+        y = y + k_dot(p, po + ns * ns + ns * nin + nout * ns + o * nin, u, uo, nin)
+    return y
+
+
+@numba.njit(cache=True)
+def fb_update(p, st, hp, c, u, uo):
+    """Advance copy c with the inputs u[uo : uo + nin] (FilterBank.update): x ← Ad x + Bd u."""
+    po = int(p[hp])
+    ns = int(p[hp + 1])
+    nin = int(p[hp + 2])
+    so = int(p[hp + 4]) + c * ns
+    sc = int(p[hp + 5])
+    for i in range(ns):
+        st[sc + i] = k_dot(p, po + i * ns, st, so, ns) + k_dot(p, po + ns * ns + i * nin, u, uo, nin)
+    for i in range(ns):
+        st[so + i] = st[sc + i]
+
+
+class KernelLayout:
+    """Builds a compiled controller's rows p (n_cars, kp) and st (n_cars, ks) block by block; each add
+    returns the block's first column.  Shared values (the same for every car) are given as a scalar or
+    1-D array, per-car values as (n_cars, k) with ``per_car=True``."""
+
+    def __init__(self, n: int):
+        self.n = n
+        self._blocks = {"p": [], "st": []}
+        self._size = {"p": 0, "st": 0}
+
+    def _add(self, which, values, per_car):
+        a = np.asarray(values, dtype=float)
+        a = a.reshape(self.n, -1) if per_car else np.broadcast_to(a.reshape(1, -1), (self.n, a.size))
+        off = self._size[which]
+        self._blocks[which].append(np.array(a))
+        self._size[which] += a.shape[1]
+        return off
+
+    def p(self, values, per_car=False) -> int:
+        return self._add("p", values, per_car)
+
+    def st(self, values, per_car=False) -> int:
+        return self._add("st", values, per_car)
+
+    def set_p(self, off: int, values) -> None:
+        """Overwrite shared values of p starting at column off (a block reserved earlier)."""
+        a = np.asarray(values, dtype=float).reshape(-1)
+        start = 0
+        for b in self._blocks["p"]:
+            if start <= off < start + b.shape[1]:
+                j = off - start
+                if j + a.size > b.shape[1]:
+                    raise ValueError("set_p crosses a block boundary")
+                b[:, j:j + a.size] = a[None, :]
+                return
+            start += b.shape[1]
+        raise IndexError(off)
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        out = []
+        for which in ("p", "st"):
+            bl = self._blocks[which]
+            a = np.concatenate(bl, axis=1) if bl else np.zeros((self.n, 0))
+            out.append(np.ascontiguousarray(a, dtype=np.float64))
+        return out[0], out[1]

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 from typing import Optional
 
+import numba
 import numpy as np
 from pydantic import Field
 
@@ -51,7 +52,7 @@ from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
-from .thesis_common import FilterBank, _f
+from .thesis_common import FB_HEADER, FilterBank, KernelLayout, _f, fb_update, fb_y, fb_yu, k_dot, k_dot_seq
 
 
 class MRACContinuousParams(Params):
@@ -73,6 +74,94 @@ class MRACContinuousParams(Params):
                            "the rate of static-level recovery is ≈ γ_d·b0 (1/s)")
     theta0: Optional[list[float]] = Field(None, description="initial Θ (6 values incl. θ_d); default nominal")
     fully_active: bool = Field(False, description="C = K = 0 in Eq. 3.6 (fully active suspension)")
+
+
+# ---- compiled kernel (suspension_sim.compiled): MRACContinuous.step for one car ----------------------------
+# p: the filters' headers (FB_HEADER values each, in _FILTERS order), then the scalars _PS.., Γ (5), then the
+# filter matrices.  st: Θ (6), b0, F, the signals ref_x, ref_acc, ref_travel, err, the scratch φ (6), P1φ (6)
+# and the filter inputs (F, x, w, 1), then the filter states.
+_FILTERS = ("fEf", "fP", "fsP", "fP2", "fsP2", "fP1", "ref")
+_HEF, _HP, _HSP, _HP2, _HSP2, _HP1, _HREF = (FB_HEADER * i for i in range(len(_FILTERS)))
+_PS = FB_HEADER * len(_FILTERS)  # scalars: sensor offsets x, ẋ, w, ẇ; h, K_v, α, γ_d, static, γ_b0, b-range, Kc, Cc, 2ζω, ω²
+_PG = _PS + 16  # Γ (5)
+_ST_TH, _ST_B0, _ST_F, _ST_RX, _ST_RA, _ST_RT, _ST_E = 0, 6, 7, 8, 9, 10, 11
+_ST_PHI, _ST_P1PHI, _ST_U = 12, 18, 24
+_ST_N = 28
+
+
+@numba.njit(cache=True)
+def _kernel(t, y, p, st, u):
+    x = y[int(p[_PS])]
+    xd = y[int(p[_PS + 1])]
+    w = y[int(p[_PS + 2])]
+    wd = y[int(p[_PS + 3])]
+    h = p[_PS + 4]
+    k_v = p[_PS + 5]
+    alpha = p[_PS + 6]
+    # regressor φ and P1·φ (as step: filter outputs before this step's update)
+    st[_ST_PHI] = fb_y(p, st, _HP, 0, 0)
+    st[_ST_PHI + 1] = fb_y(p, st, _HSP, 0, 0)
+    st[_ST_PHI + 2] = fb_y(p, st, _HP, 1, 0)
+    st[_ST_PHI + 3] = -fb_y(p, st, _HSP, 1, 0)
+    st[_ST_PHI + 4] = -fb_y(p, st, _HP, 2, 0)
+    st[_ST_PHI + 5] = fb_y(p, st, _HP, 3, 0)
+    st[_ST_U + 1] = x
+    st[_ST_U + 2] = w
+    st[_ST_U + 3] = 1.0
+    st[_ST_P1PHI] = fb_y(p, st, _HP2, 0, 0)
+    st[_ST_P1PHI + 1] = fb_yu(p, st, _HSP2, 0, 0, st, _ST_U + 1)
+    st[_ST_P1PHI + 2] = fb_y(p, st, _HP2, 1, 0)
+    st[_ST_P1PHI + 3] = -fb_yu(p, st, _HSP2, 1, 0, st, _ST_U + 2)
+    st[_ST_P1PHI + 4] = -fb_y(p, st, _HP2, 2, 0)
+    st[_ST_P1PHI + 5] = fb_y(p, st, _HP2, 3, 0)
+    xr0 = fb_y(p, st, _HREF, 0, 0)
+    xr1 = fb_y(p, st, _HREF, 0, 1)
+    e = x - xr0
+    st[_ST_E] = e
+    ef = fb_yu(p, st, _HEF, 0, 0, st, _ST_E)
+    ed = xd - xr1
+    FP1 = fb_y(p, st, _HP1, 0, 0)
+    b0 = st[_ST_B0]
+    eta = -(FP1 + k_dot(st, _ST_PHI, st, _ST_TH, 6))
+    eps = ef + b0 * eta + k_v * ed
+    # adaptation
+    den = alpha + _den3(st, p)
+    r = eps / den
+    for j in range(5):
+        st[_ST_TH + j] += h * p[_PG + j] * st[_ST_PHI + j] * r
+    if p[_PS + 8] != 0.0:
+        pd = st[_ST_PHI + 5]
+        st[_ST_TH + 5] += h * p[_PS + 7] * pd * eps / (alpha + pd * pd)
+    if p[_PS + 9] > 0.0:
+        epsh = ef + b0 * eta
+        b = b0 - h * p[_PS + 9] * eta * epsh / (1e-12 + eta * eta)
+        st[_ST_B0] = min(max(b, p[_PS + 10]), p[_PS + 11])
+    F = -k_dot(st, _ST_TH, st, _ST_P1PHI, 6)
+    u[0] = F - p[_PS + 13] * wd - p[_PS + 12] * w
+    # advance the filters with this step's inputs
+    st[_ST_U] = F
+    for c in range(4):
+        fb_update(p, st, _HP, c, st, _ST_U + c)
+        fb_update(p, st, _HP2, c, st, _ST_U + c)
+    for c in range(2):
+        fb_update(p, st, _HSP, c, st, _ST_U + 1 + c)
+        fb_update(p, st, _HSP2, c, st, _ST_U + 1 + c)
+    fb_update(p, st, _HP1, 0, st, _ST_U)
+    fb_update(p, st, _HREF, 0, st, _ST_U + 2)
+    fb_update(p, st, _HEF, 0, st, _ST_E)
+    st[_ST_F] = F
+    st[_ST_RX] = xr0
+    st[_ST_RA] = -p[_PS + 14] * xr1 - p[_PS + 15] * (xr0 - w)
+    st[_ST_RT] = xr0 - w
+
+
+@numba.njit(cache=True)
+def _den3(st, p):
+    """Σ φ_k Γ_k φ_k (k < 5) as np.einsum("nk,k,nk->n") sums it: (φ·Γ)·φ in order from 0.0."""
+    acc = 0.0
+    for j in range(5):
+        acc += st[_ST_PHI + j] * p[_PG + j] * st[_ST_PHI + j]
+    return acc
 
 
 @CONTROLLERS.register("thesis_mrac_continuous")
@@ -179,3 +268,40 @@ class MRACContinuous(Controller):
 
     def signals(self):
         return self._sig
+
+    # ---- compiled kernel (see _kernel) ----
+    kernel = staticmethod(_kernel)
+
+    def kernel_data(self):
+        n = self.ctx.n_cars
+        lay = KernelLayout(n)
+        lay.p(np.zeros(_PS))  # filter headers, filled by kernel_pack
+        sl = [float(self.ctx.sensor_slice(nm)[0]) for nm in ("body_pos", "body_vel", "road", "road_vel")]
+        p = self.p
+        lay.p(sl + [self.ctx.control_dt, _f(p.k_v), _f(p.alpha), _f(p.gamma_d), float(bool(p.static_level)),
+                    _f(p.gamma_b0), self.b_lim[0], self.b_lim[1], self.Kc, self.Cc, self.zw2, self.wm2])
+        assert lay.p(self.Gamma) == _PG
+        assert lay.st(self.theta, per_car=True) == _ST_TH
+        lay.st(self.b0[:, None], per_car=True)
+        lay.st(np.broadcast_to(np.asarray(self.F, dtype=float), (n,))[:, None], per_car=True)
+        sig = self._sig
+        lay.st(np.stack([np.broadcast_to(np.asarray(sig.get(k, 0.0), dtype=float), (n,))
+                         for k in ("ref_x", "ref_acc", "ref_travel", "err")], axis=1), per_car=True)
+        assert lay.st(np.zeros(_ST_N - _ST_PHI)) == _ST_PHI
+        self._kso = {nm: getattr(self, nm).kernel_pack(lay, FB_HEADER * i) for i, nm in enumerate(_FILTERS)}
+        return lay.arrays()
+
+    def kernel_signals(self):
+        return {"theta": (_ST_TH, _ST_TH + 6), "b0": (_ST_B0, _ST_B0 + 1), "ref_x": (_ST_RX, _ST_RX + 1),
+                "ref_acc": (_ST_RA, _ST_RA + 1), "ref_travel": (_ST_RT, _ST_RT + 1), "err": (_ST_E, _ST_E + 1)}
+
+    def kernel_sync(self, st):
+        st = np.asarray(st, dtype=float)
+        self.theta = np.array(st[:, _ST_TH:_ST_TH + 6])
+        self.b0 = np.array(st[:, _ST_B0])
+        self.F = np.array(st[:, _ST_F])
+        for nm, so in self._kso.items():
+            getattr(self, nm).kernel_sync(st, so)
+        self._sig = {"theta": self.theta.copy(), "b0": self.b0.copy()}
+        self._sig.update({k: np.array(st[:, a]) for k, (a, _) in self.kernel_signals().items()
+                          if k not in ("theta", "b0")})

@@ -1,0 +1,131 @@
+"""Compiled kernels of the thesis controllers (controllers/thesis_*.py) against their numpy ``step``.
+
+Each test runs a shortened copy of a thesis scenario file through the Python loop and replays every control
+step's readings through the controller's numba kernel (``suspension_sim.compiled.testing.check_controller``);
+commands and logged signals must be bit-identical (difference exactly 0.0): the kernels do the numpy
+method's floating-point operations in numpy's order (see the summation-order note in
+controllers/thesis_common.py, checked against np.einsum below).  Ensembles of three cars differ in their
+vehicle parameters: the thesis controllers need equal controller parameters across an ensemble
+(thesis_common._f), so the cars' readings, not their designs, differ."""
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+from controllers.thesis_common import k_dot, k_dot_seq
+from suspension_sim.compiled.testing import check_controller
+from suspension_sim.config import parse_scenario, read_yaml
+from suspension_sim.simulation import Simulation
+
+
+def scenario(repo, name, duration, edit=None):
+    raw = read_yaml(repo / "scenarios" / f"{name}.yaml")
+    raw["sim"]["duration"] = duration
+    raw.pop("variants", None)
+    if edit:
+        edit(raw)
+    return parse_scenario(raw)
+
+
+def ensemble(repo, name, duration, param, values, edit=None):
+    """Scenarios that differ in vehicle parameter ``param`` (one car each), after ``edit``."""
+    out = []
+    for v in values:
+        def e(raw, v=v):
+            raw["vehicle"]["params"][param] = v
+            if edit:
+                edit(raw)
+        out.append(scenario(repo, name, duration, e))
+    return out
+
+
+def replay_and_sync(sim):
+    """Run ``sim`` in Python, replay its readings through a copy's kernel, kernel_sync that copy; return
+    (python controller, synced copy)."""
+    ctrl = sim.controller
+    kn = copy.deepcopy(ctrl)
+    names = list(kn.ctx.sensors)
+    log = []
+    readings = sim.start()
+    while readings is not None:
+        u = np.broadcast_to(np.asarray(ctrl.step(sim.t, readings), dtype=float), (sim.plant.n, sim.plant.nc))
+        log.append((sim.t, {k: np.array(v, dtype=float) for k, v in readings.items()}))
+        readings = sim.control_step(u)
+    kn.reset()
+    p, st = kn.kernel_data()
+    out = np.zeros(kn.ctx.n_corners)
+    for t, y in log:
+        for i in range(kn.ctx.n_cars):
+            yi = np.ascontiguousarray(np.concatenate([y[nm].reshape(kn.ctx.n_cars, -1)[i] for nm in names]))
+            kn.kernel(t, yi, p[i], st[i], out)
+    kn.kernel_sync(st)
+    return ctrl, kn
+
+
+def assert_same_signals(a, b):
+    sa, sb = a.signals(), b.signals()
+    assert set(sa) == set(sb) and sa
+    for k in sa:
+        np.testing.assert_array_equal(np.asarray(sb[k]).reshape(a.ctx.n_cars, -1),
+                                      np.asarray(sa[k]).reshape(a.ctx.n_cars, -1), err_msg=k)
+
+
+# --- the summation order of np.einsum that the kernels reproduce ------------------------------------------
+
+def test_einsum_summation_order_is_the_one_the_kernels_use():
+    """k_dot reproduces np.einsum over an axis contiguous in both operands, k_dot_seq a strided reduction
+    and a three-operand product (if a numpy build sums differently, this fails first)."""
+    rng = np.random.default_rng(0)
+    for K in list(range(1, 20)) + [24, 33]:
+        for _ in range(20):
+            a = rng.standard_normal((3, K)) * 10.0 ** rng.uniform(-6, 6, (3, K))
+            b = rng.standard_normal((3, K))
+            ref = np.einsum("nk,nk->n", a, b)
+            got = [k_dot(a[i], 0, b[i], 0, K) for i in range(3)]
+            assert np.array_equal(ref, got), K
+            m = 3
+            th = rng.standard_normal((2, K, m)) * 10.0 ** rng.uniform(-6, 6, (2, K, m))
+            ref = np.einsum("npm,np->nm", th, a[:2])
+            got = [[k_dot_seq(th[i].ravel(), c, m, a[i], 0, 1, K) for c in range(m)] for i in range(2)]
+            assert np.array_equal(ref, got), K
+    # the plain sequential sum differs from einsum's for some K >= 3: the order matters
+    a = rng.standard_normal((200, 6)) * 10.0 ** rng.uniform(-6, 6, (200, 6))
+    seq = [k_dot_seq(r, 0, 1, np.ones(6), 0, 1, 6) for r in a]
+    assert not np.array_equal(np.einsum("nk,nk->n", a, np.ones((200, 6))), seq)
+
+
+# --- Ch. 3: continuous MRAC ---------------------------------------------------------------------------------
+
+def _ch3_load(raw):
+    raw["vehicle"]["variations"][0]["times"] = [0.4, 0.8]
+
+
+def test_mrac_continuous_kernel_single_car(request):
+    sim = Simulation([scenario(request.config.rootpath, "thesis_ch3_load_step", 1.2, _ch3_load)])
+    assert check_controller(sim) == 0.0
+
+
+def test_mrac_continuous_kernel_ensemble_b0_estimator(request):
+    """Three cars (sprung mass 250/350/450 kg) on the dirt road, with the b0 estimator on (it runs into its
+    lower clip) and without the static-level parameter: the other branches of the kernel."""
+    def edit(raw):
+        raw["controller"]["params"].update(gamma_b0=50.0, static_level=False)
+
+    sim = Simulation(ensemble(request.config.rootpath, "thesis_ch3_dirt", 1.0, "sprung_mass", [250, 350, 450],
+                              edit))
+    assert check_controller(sim) == 0.0
+    assert np.all(sim.controller.b0 == sim.controller.b_lim[0])  # the clip was engaged
+
+
+def test_mrac_continuous_kernel_sync(request):
+    sims = ensemble(request.config.rootpath, "thesis_ch3_load_step", 1.0, "sprung_mass", [250, 300, 350],
+                    _ch3_load)
+    py, kn = replay_and_sync(Simulation(sims))
+    np.testing.assert_array_equal(kn.theta, py.theta)
+    np.testing.assert_array_equal(kn.b0, py.b0)
+    np.testing.assert_array_equal(kn.F, py.F)
+    for nm in ("fEf", "fP", "fsP", "fP2", "fsP2", "fP1", "ref"):
+        np.testing.assert_array_equal(getattr(kn, nm).x, getattr(py, nm).x, err_msg=nm)
+    assert_same_signals(py, kn)
