@@ -32,11 +32,15 @@ States (logged as ``act.<name><suffix>``): ``current_push``, ``current_pull``, `
 """
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
 from pydantic import Field
 
 from ..components import Params
 from ..registry import ACTUATORS
+from ._common import kernel_pack
 from .base import Actuator
 
 P_COEFS = (0.197, -1.94, 26.34, -239.54)  # Eq. (6), N/A², ascending powers of x (m)
@@ -61,6 +65,90 @@ class ElectromagneticParams(Params):
                                               "(negative forces)")
     substeps: int = Field(2, ge=1, description="current-loop sub-steps per physics step (2 at dt = 0.5 ms: "
                                                "h·ω = 0.16 for the 100 Hz loop)")
+
+
+# ---------------------------------------------------------------------------------------------------------
+# compiled kernels (see suspension_sim.compiled): the same operations as force()/advance() for one corner.
+# p = [x0, x_min, x_max, push_pull?, i_max, substeps (ensemble max), u_max, K_i, 1/T_i, R, L]
+# st = [i_push, i_pull, I_push, I_pull, u_push, u_pull, i_ref_push, i_ref_pull, F]
+_PC_DESC = P_COEFS[::-1]  # np.polyval order
+
+
+@numba.njit(cache=True)
+def _kclip(x, lo, hi):
+    """np.clip for scalars (NaN propagates)."""
+    if x < lo:
+        return lo
+    if x > hi:
+        return hi
+    return x
+
+
+@numba.njit(cache=True)
+def _kmax(a, b):
+    """np.maximum for scalars (NaN propagates)."""
+    if a != a:
+        return a
+    if b != b:
+        return b
+    return a if a >= b else b
+
+
+@numba.njit(cache=True)
+def _kmin(a, b):
+    """np.minimum for scalars (NaN propagates)."""
+    if a != a:
+        return a
+    if b != b:
+        return b
+    return a if a <= b else b
+
+
+@numba.njit(cache=True)
+def _kgain(x):
+    """max(p_of_x(x), 1e-6), p_of_x by Horner's rule from 0 as np.polyval does."""
+    y = 0.0
+    for c in _PC_DESC:
+        y = y * x + c
+    return _kmax(y, 1e-6)
+
+
+@numba.njit(cache=True)
+def _kernel_force(cmd, s, v, t, dt, p, st):
+    """``ElectromagneticActuator.force`` for one corner."""
+    gp = _kgain(_kclip(p[0] - s, p[1], p[2]))
+    gq = _kgain(_kclip(p[0] + s, p[1], p[2]))
+    i0 = st[0]
+    i1 = st[1]
+    F = gp * (i0 * i0) - gq * (i1 * i1)
+    st[8] = F
+    return F
+
+
+@numba.njit(cache=True)
+def _kernel_advance(cmd, s, v, t, dt, p, st):
+    """``ElectromagneticActuator.advance`` for one corner (references, then the PI current loops)."""
+    gp = _kgain(_kclip(p[0] - s, p[1], p[2]))
+    gq = _kgain(_kclip(p[0] + s, p[1], p[2]))
+    push = _kmax(cmd, 0.0) if p[3] != 0.0 else 0.0
+    pull = _kmax(-cmd, 0.0)
+    st[6] = _kmin(math.sqrt(push / gp), p[4])
+    st[7] = _kmin(math.sqrt(pull / gq), p[4])
+    ns = int(p[5])
+    h = dt / ns
+    umax = p[6]
+    Ki, gi, R, L = p[7], p[8], p[9], p[10]
+    for _ in range(ns):
+        for k in range(2):
+            i = st[k]
+            e = st[6 + k] - i
+            u_raw = st[2 + k] - Ki * i
+            u = _kmin(_kmax(u_raw, -umax), umax)
+            hold = (u_raw > umax and e > 0) or (u_raw < -umax and e < 0)
+            gate = 0.0 if hold else 1.0
+            st[2 + k] = st[2 + k] + gate * (gi * h) * e
+            st[k] = _kmax((i + (h / L) * u) / (1.0 + h * R / L), 0.0)
+            st[4 + k] = u
 
 
 @ACTUATORS.register("electromagnetic")
@@ -127,3 +215,20 @@ class ElectromagneticActuator(Actuator):
         return {"force": self.F, "current_push": self.i[0], "current_pull": self.i[1],
                 "current_ref_push": self.i_ref[0], "current_ref_pull": self.i_ref[1],
                 "voltage_push": self.u[0], "voltage_pull": self.u[1]}
+
+    kernel_force = staticmethod(_kernel_force)
+    kernel_advance = staticmethod(_kernel_advance)
+
+    def kernel_data(self):
+        """(p, st) of the kernels; layout in the comment above ``_kernel_force``.  ``push_pull`` and
+        ``substeps`` are ensemble-wide, as in :meth:`references` and :meth:`advance`."""
+        p, ctx = self.p, self.ctx
+        kp = kernel_pack(ctx, p.x0, p.x_min, p.x_max, float(bool(p.push_pull)), p.i_max,
+                         float(int(np.max(p.substeps))), p.u_max, self.Ki, self.inv_Ti, self.R, self.L)
+        st = kernel_pack(ctx, self.i[0], self.i[1], self.I[0], self.I[1], self.u[0], self.u[1],
+                         self.i_ref[0], self.i_ref[1], self.F)
+        return kp, st
+
+    def kernel_states(self):
+        return {"force": 8, "current_push": 0, "current_pull": 1, "current_ref_push": 6, "current_ref_pull": 7,
+                "voltage_push": 4, "voltage_pull": 5}
