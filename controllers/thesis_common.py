@@ -265,6 +265,35 @@ class DiscreteMRAC:
     def theta_unscaled(self):
         return self.theta * self.sc[None, :, None]
 
+    def kernel_pack(self, lay, hd: int) -> None:
+        """Store this estimator in a KernelLayout for dm_step: state per car in st, constants in p, the
+        header at the reserved p columns hd..hd+DM_HEADER−1 (numpy's trace order needs p ≤ 128)."""
+        n, npar, m = self.theta.shape
+        if npar > 128:
+            raise ValueError("dm_step sums trace(P) pairwise for at most 128 parameters")
+        nh = self.Y.shape[1]
+        so = {nm: lay.st(getattr(self, nm).reshape(n, -1), per_car=True) for nm in ("theta", "P", "Y", "U", "Phi", "err")}
+        scr = lay.st(np.zeros(3 * npar + 2 * m))
+        sc = lay.p(self.sc)
+        q = lay.p(self.q)
+        bnd = [sorted((self.bi_range[0] * self.bi_nom[i], self.bi_range[1] * self.bi_nom[i])) for i in range(m)]
+        lo = lay.p([b[0] for b in bnd])
+        hi = lay.p([b[1] for b in bnd])
+        trQ = float(np.trace(np.diag(np.broadcast_to(np.asarray(self.q, dtype=float), (npar,)))))
+        am = [float(a) for a in self.am[:3]]
+        lay.set_p(hd, [m, self.D, npar, nh, so["theta"], so["P"], so["Y"], so["U"], so["Phi"], so["err"], scr,
+                       sc, q, trQ, float(self.trace_max), lo, hi, *am, float(self.kappa),
+                       float(self.u_max is not None), 0.0 if self.u_max is None else float(self.u_max)])
+        self._kso = so
+
+    def kernel_sync(self, st: np.ndarray) -> None:
+        """Take the estimator state back from a kernel's st rows (as kernel_pack placed it)."""
+        n = st.shape[0]
+        for nm, off in self._kso.items():
+            a = getattr(self, nm)
+            size = a.size // n
+            setattr(self, nm, np.array(st[:, off:off + size]).reshape(a.shape))
+
 
 # ---------------------------------------------------------------------------------------------------------
 # Compiled kernels (see suspension_sim.compiled): scalar numba helpers for one car.  The rows p (parameters)
@@ -397,3 +426,150 @@ class KernelLayout:
             a = np.concatenate(bl, axis=1) if bl else np.zeros((self.n, 0))
             out.append(np.ascontiguousarray(a, dtype=np.float64))
         return out[0], out[1]
+
+
+@numba.njit(cache=True)
+def k_sum_pw(a, ao, sa, n):
+    """Σ_j a[ao + j·sa], j < n ≤ 128, in the order of numpy's pairwise summation (np.sum, np.trace): in
+    order from 0.0 below 8 terms, else 8 running partial sums combined as ((0+1)+(2+3))+((4+5)+(6+7)),
+    then the rest in order."""
+    if n < 8:
+        acc = 0.0
+        for j in range(n):
+            acc += a[ao + j * sa]
+        return acc
+    r0 = a[ao]
+    r1 = a[ao + sa]
+    r2 = a[ao + 2 * sa]
+    r3 = a[ao + 3 * sa]
+    r4 = a[ao + 4 * sa]
+    r5 = a[ao + 5 * sa]
+    r6 = a[ao + 6 * sa]
+    r7 = a[ao + 7 * sa]
+    i = 8
+    while i < n - (n % 8):
+        r0 += a[ao + i * sa]
+        r1 += a[ao + (i + 1) * sa]
+        r2 += a[ao + (i + 2) * sa]
+        r3 += a[ao + (i + 3) * sa]
+        r4 += a[ao + (i + 4) * sa]
+        r5 += a[ao + (i + 5) * sa]
+        r6 += a[ao + (i + 6) * sa]
+        r7 += a[ao + (i + 7) * sa]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[ao + i * sa]
+        i += 1
+    return res
+
+
+# DiscreteMRAC header in p (DM_HEADER values at hd): m, D, n parameters, n history; st offsets of Θ (p·m),
+# P (p·p), Y (nh·m), U (nh·m), Φ ((D+1)·p), err (m), scratch (3p + 2m: Pφ, φ_old, φ, Ȳ, u); p offsets of
+# the scaling (p), q (p); trace(Q), trace bound; p offsets of the (β0)⁻¹ bounds lo (m), hi (m); a_m (3);
+# κ; u_max set (0/1), u_max.
+DM_HEADER = 23
+
+
+@numba.njit(cache=True)
+def dm_step(p, st, hd, y, yo, ybs, ybo, estimate):
+    """DiscreteMRAC.step for one car: y[yo : yo + m] the output Y[k], ybs[ybo : ybo + m] the filtered
+    target Ȳ*[k+D].  U[k] is left in the newest U slot, st[U : U + m] (U = int(p[hd + 7]))."""
+    m = int(p[hd])
+    D = int(p[hd + 1])
+    npar = int(p[hd + 2])
+    nh = int(p[hd + 3])
+    TH = int(p[hd + 4])
+    PP = int(p[hd + 5])
+    Y = int(p[hd + 6])
+    U = int(p[hd + 7])
+    PH = int(p[hd + 8])
+    ER = int(p[hd + 9])
+    S = int(p[hd + 10])
+    SC = int(p[hd + 11])
+    Q = int(p[hd + 12])
+    PPHI, PHO, PHI, YB, UN = S, S + npar, S + 2 * npar, S + 3 * npar, S + 3 * npar + m
+    bi = npar - m
+    # Y ← roll(Y, 1); Y[0] = y;  Ȳ[k] = a_m(q⁻¹) Y[k]
+    for k in range(nh - 1, 0, -1):
+        for c in range(m):
+            st[Y + k * m + c] = st[Y + (k - 1) * m + c]
+    for c in range(m):
+        st[Y + c] = y[yo + c]
+    for c in range(m):
+        st[YB + c] = p[hd + 17] * y[yo + c] + p[hd + 18] * st[Y + m + c] + p[hd + 19] * st[Y + 2 * m + c]
+    if estimate:
+        started = False
+        for j in range(npar):
+            st[PHO + j] = st[PH + (D - 1) * npar + j]
+            if st[PHO + j] != 0.0:
+                started = True
+        for c in range(m):
+            st[PHO + bi + c] = st[YB + c] * p[SC + bi + c]
+        if started:  # rls_update with target U[k−D]
+            for i in range(npar):
+                st[PPHI + i] = k_dot(st, PP + i * npar, st, PHO, npar)
+            denom = 1.0 + k_dot(st, PHO, st, PPHI, npar)
+            for c in range(m):
+                if m == 1:
+                    pred = k_dot(st, TH, st, PHO, npar)
+                else:
+                    pred = k_dot_seq(st, TH + c, m, st, PHO, 1, npar)
+                st[ER + c] = st[U + (D - 1) * m + c] - pred
+            for j in range(npar):
+                g = st[PPHI + j] / denom
+                for c in range(m):
+                    st[TH + j * m + c] += g * st[ER + c]
+            for i in range(npar):
+                for j in range(npar):
+                    st[PP + i * npar + j] -= st[PPHI + i] * st[PPHI + j] / denom
+            if (k_sum_pw(st, PP, npar + 1, npar) + p[hd + 13]) < p[hd + 14]:
+                for i in range(npar):
+                    st[PP + i * (npar + 1)] += p[Q + i]
+            for i in range(npar):
+                for j in range(i + 1, npar):
+                    v = 0.5 * (st[PP + i * npar + j] + st[PP + j * npar + i])
+                    st[PP + i * npar + j] = v
+                    st[PP + j * npar + i] = v
+            lo = int(p[hd + 15])
+            hi = int(p[hd + 16])
+            for c in range(m):
+                kk = TH + (bi + c) * m + c
+                st[kk] = min(max(st[kk], p[lo + c]), p[hi + c])
+    # φ[k] = [−Y[k], −Y[k−1], −U[k−1], …, −U[k−D], −1, Ȳ*[k+D]] · scaling
+    j = 0
+    for k in range(2):
+        for c in range(m):
+            st[PHI + j] = -st[Y + k * m + c] * p[SC + j]
+            j += 1
+    for k in range(D):
+        for c in range(m):
+            st[PHI + j] = -st[U + k * m + c] * p[SC + j]
+            j += 1
+    st[PHI + j] = -1.0 * p[SC + j]
+    j += 1
+    for c in range(m):
+        st[PHI + j] = ybs[ybo + c] * p[SC + j]
+        j += 1
+    kappa = p[hd + 20]
+    for c in range(m):
+        if m == 1:
+            uc = k_dot(st, TH, st, PHI, npar)
+        else:
+            uc = k_dot_seq(st, TH + c, m, st, PHI, 1, npar)
+        if kappa < 1.0:
+            uc = kappa * uc + (1.0 - kappa) * st[U + c]
+        if p[hd + 21] != 0.0:
+            uc = min(max(uc, -p[hd + 22]), p[hd + 22])
+        st[UN + c] = uc
+    # Φ ← roll(Φ, 1); Φ[0] = φ;  U ← roll(U, 1); U[0] = u
+    for k in range(D, 0, -1):
+        for j in range(npar):
+            st[PH + k * npar + j] = st[PH + (k - 1) * npar + j]
+    for j in range(npar):
+        st[PH + j] = st[PHI + j]
+    for k in range(nh - 1, 0, -1):
+        for c in range(m):
+            st[U + k * m + c] = st[U + (k - 1) * m + c]
+    for c in range(m):
+        st[U + c] = st[UN + c]

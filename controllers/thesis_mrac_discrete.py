@@ -36,6 +36,7 @@ Sensors: ``body_pos`` (x), ``road`` (w) and ``road_vel`` (ẇ), all with the loo
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 from pydantic import Field
 
@@ -43,7 +44,8 @@ from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
-from .thesis_common import DiscreteMRAC, FilterBank, _f, am_poly, darma, predictor, theta_from_predictor
+from .thesis_common import (DM_HEADER, FB_HEADER, DiscreteMRAC, FilterBank, KernelLayout, _f, am_poly, darma, dm_step,
+                            fb_update, fb_y, predictor, theta_from_predictor)
 
 
 class MRACDiscreteParams(Params):
@@ -62,6 +64,59 @@ class MRACDiscreteParams(Params):
     kappa: float = Field(0.1, gt=0, le=1, description="control-increment weighting κ (1 = the thesis's d-step-ahead "
                          "law, which rings at the Nyquist frequency here; see thesis_common.DiscreteMRAC)")
     road_feedforward: bool = Field(True, description="U_T = u + K*·w + C0·ẇ (see module doc)")
+
+
+# ---- compiled kernel (suspension_sim.compiled): MRACDiscrete.step for one car ------------------------------
+# p: the reference filter's header, the DiscreteMRAC header, the scalars _PS.. (sensor offsets x, w, ẇ; D;
+# n targets; st offset of the targets; a_m (3); K*, C0, feed-forward on; u_max; K_m, M_m, C_m), then
+# matrices.  st: the signals ref_x, ref_acc, ref_travel, err, pred_err, the scratch (x, Ȳ*, w), the
+# signal Θ (unscaled, p values), then the targets Y*[k+D] … and the estimator's and filter's states.
+_HREF, _HDM = 0, FB_HEADER
+_PS = FB_HEADER + DM_HEADER
+_ST_RX, _ST_RA, _ST_RT, _ST_E, _ST_PE, _ST_X, _ST_YB, _ST_W, _ST_TH = range(9)
+
+
+@numba.njit(cache=True)
+def _kernel(t, y, p, st, u):
+    x = y[int(p[_PS])]
+    w = y[int(p[_PS + 1])]
+    wd = y[int(p[_PS + 2])]
+    D = int(p[_PS + 3])
+    nt = int(p[_PS + 4])
+    TG = int(p[_PS + 5])
+    r0 = fb_y(p, st, _HREF, 0, 0)
+    r1 = fb_y(p, st, _HREF, 0, 1)
+    st[_ST_W] = w
+    fb_update(p, st, _HREF, 0, st, _ST_W)
+    for k in range(nt - 1, 0, -1):
+        st[TG + k] = st[TG + k - 1]
+    st[TG] = fb_y(p, st, _HREF, 0, 0)
+    st[_ST_YB] = p[_PS + 6] * st[TG] + p[_PS + 7] * st[TG + 1] + p[_PS + 8] * st[TG + 2]
+    st[_ST_X] = x
+    dm_step(p, st, _HDM, st, _ST_X, st, _ST_YB, True)
+    U = int(p[_HDM + 7])
+    UT = st[U]
+    ff = 0.0
+    if p[_PS + 11] != 0.0:
+        ff = p[_PS + 9] * w + p[_PS + 10] * wd
+    umax = p[_PS + 12]
+    uc = min(max(UT - ff, -umax), umax)
+    st[U] = uc + ff
+    u[0] = uc
+    # signals
+    npar = int(p[_HDM + 2])
+    TH = int(p[_HDM + 4])
+    SC = int(p[_HDM + 11])
+    for j in range(npar):
+        st[_ST_TH + j] = st[TH + j] * p[SC + j]
+    Km = p[_PS + 13]
+    Mm = p[_PS + 14]
+    Cm = p[_PS + 15]
+    st[_ST_RX] = r0
+    st[_ST_RA] = (-Cm * r1 - Km * (r0 - w)) / Mm
+    st[_ST_RT] = r0 - w
+    st[_ST_E] = x - st[TG + D]
+    st[_ST_PE] = st[int(p[_HDM + 9])]
 
 
 @CONTROLLERS.register("thesis_mrac_discrete")
@@ -115,3 +170,43 @@ class MRACDiscrete(Controller):
 
     def signals(self):
         return self._sig
+
+    # ---- compiled kernel (see _kernel) ----
+    kernel = staticmethod(_kernel)
+
+    def kernel_data(self):
+        n, p, core = self.ctx.n_cars, self.p, self.core
+        if self.p.u_max is None:  # (the field is required; step would then skip the U correction)
+            raise NotImplementedError("the kernel needs u_max")
+        lay = KernelLayout(n)
+        lay.p(np.zeros(_PS))  # headers, filled by kernel_pack
+        npar = core.p
+        nt = self.targets.shape[1]
+        sl = [float(self.ctx.sensor_slice(nm)[0]) for nm in ("body_pos", "road", "road_vel")]
+        lay.p(sl + [self.D, nt, _ST_TH + npar, *[float(a) for a in self.am[:3]], self.Kn, self.Cn,
+                    float(bool(p.road_feedforward)), _f(p.u_max), _f(p.ref_stiffness), _f(p.ref_mass),
+                    _f(p.ref_damping)])
+        sig = self._sig
+        cols = [np.broadcast_to(np.asarray(sig.get(k, 0.0), dtype=float), (n,))
+                for k in ("ref_x", "ref_acc", "ref_travel", "err", "pred_err")]
+        assert lay.st(np.stack(cols, axis=1), per_car=True) == _ST_RX
+        lay.st(np.zeros(3))
+        assert lay.st(core.theta_unscaled[:, :, 0], per_car=True) == _ST_TH
+        assert lay.st(self.targets, per_car=True) == _ST_TH + npar
+        core.kernel_pack(lay, _HDM)
+        self._kso = self.ref.kernel_pack(lay, _HREF)
+        return lay.arrays()
+
+    def kernel_signals(self):
+        npar = self.core.p
+        return {"theta": (_ST_TH, _ST_TH + npar), "ref_x": (_ST_RX, _ST_RX + 1), "ref_acc": (_ST_RA, _ST_RA + 1),
+                "ref_travel": (_ST_RT, _ST_RT + 1), "err": (_ST_E, _ST_E + 1), "pred_err": (_ST_PE, _ST_PE + 1)}
+
+    def kernel_sync(self, st):
+        st = np.asarray(st, dtype=float)
+        npar, nt = self.core.p, self.targets.shape[1]
+        self.core.kernel_sync(st)
+        self.ref.kernel_sync(st, self._kso)
+        self.targets = np.array(st[:, _ST_TH + npar:_ST_TH + npar + nt])
+        self._sig = {k: np.array(st[:, a:b]) if k == "theta" else np.array(st[:, a])
+                     for k, (a, b) in self.kernel_signals().items()}

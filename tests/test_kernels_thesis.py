@@ -129,3 +129,94 @@ def test_mrac_continuous_kernel_sync(request):
     for nm in ("fEf", "fP", "fsP", "fP2", "fsP2", "fP1", "ref"):
         np.testing.assert_array_equal(getattr(kn, nm).x, getattr(py, nm).x, err_msg=nm)
     assert_same_signals(py, kn)
+
+
+# --- the discrete MRAC estimator (Ch. 4 and Ch. 7) on its own: every branch -------------------------------
+
+def _core_design(m, D, kappa, u_max, beta_inv_range, trace_max, n):
+    from controllers.thesis_common import DiscreteMRAC, am_poly, darma, predictor, theta_from_predictor
+
+    h = 0.01
+    if m == 1:
+        Ac, Bc, Cc = np.array([[0.0, 1.0], [-20.0, -4.0]]), np.array([[0.0], [0.004]]), np.array([[1.0, 0.0]])
+    else:
+        Ac = np.block([[np.zeros((2, 2)), np.eye(2)], [-np.array([[130.0, 10.0], [8.0, 90.0]]),
+                                                       -np.array([[4.0, 0.5], [0.3, 3.0]])]])
+        Bc, Cc = np.vstack([np.zeros((2, 2)), np.array([[0.001, 0.0002], [0.0003, 0.0008]])]), np.eye(2, 4)
+    A, B = darma(Ac, Bc, Cc, h)
+    am = am_poly(2 * np.pi * 1.5, 0.9, h)
+    D, alpha, beta = predictor(A, B, am, D - 1)
+    return DiscreteMRAC(theta_from_predictor(alpha, beta), m, D, am, n, 0.01, 1e-3, trace_max,
+                        beta_inv_range=beta_inv_range, u_max=u_max, kappa=kappa, p0_bias=0.1, q_bias=0.01)
+
+
+@pytest.mark.parametrize("m, D, kappa, u_max", [(1, 6, 0.1, 300.0), (2, 2, 0.2, None), (2, 1, 1.0, 50.0)])
+def test_discrete_mrac_core_kernel_all_branches(m, D, kappa, u_max):
+    """dm_step against DiscreteMRAC.step on synthetic readings of 3 cars (different scales), bit for bit,
+    with the covariance addition first refused by the trace bound and later applied, the (β0)⁻¹
+    projection and (where set) the force limit engaged."""
+    from controllers.thesis_common import DM_HEADER, KernelLayout, dm_step
+
+    n = 3
+    core = _core_design(m, D, kappa, u_max, (0.9, 1.1), 0.0, n)
+    core.trace_max = float(np.trace(core.P[0])) * 0.98  # the first updates may not add q·I
+    lay = KernelLayout(n)
+    lay.p(np.zeros(DM_HEADER))
+    core.kernel_pack(lay, 0)
+    p, st = lay.arrays()
+    U = int(p[0, 7])
+    rng = np.random.default_rng(5)
+    scale = np.array([0.01, 0.05, 0.2])[:, None]
+    yv = np.zeros((n, m))
+    seen = {"refused": False, "added": False, "proj": False, "umax": u_max is None}
+    tr_prev = np.trace(core.P, axis1=1, axis2=2)
+    lo_hi = [sorted((0.9 * b, 1.1 * b)) for b in core.bi_nom]
+    for k in range(300):
+        yv = 0.95 * yv + scale * rng.standard_normal((n, m))
+        ybs = scale * rng.standard_normal((n, m))
+        u = core.step(yv.copy(), ybs)
+        for i in range(n):
+            dm_step(p[i], st[i], 0, np.ascontiguousarray(yv[i]), 0, np.ascontiguousarray(ybs[i]), 0, True)
+        np.testing.assert_array_equal(st[:, U:U + m], u)
+        tr = np.trace(core.P, axis1=1, axis2=2)
+        started = tr != tr_prev
+        seen["refused"] |= bool(np.any(started & (tr >= core.trace_max)))  # an addition would leave it below
+        seen["added"] |= bool(np.any(tr > tr_prev))
+        bi = core.theta[:, core.p - m:, :]
+        seen["proj"] |= any(np.any((bi[:, c, c] == lo_hi[c][0]) | (bi[:, c, c] == lo_hi[c][1])) for c in range(m))
+        if u_max is not None:
+            seen["umax"] |= bool(np.any(np.abs(u) == u_max))
+        tr_prev = tr
+    ref = copy.deepcopy(core)
+    core.kernel_sync(st)
+    for nm in ("theta", "P", "Y", "U", "Phi", "err"):
+        np.testing.assert_array_equal(getattr(core, nm), getattr(ref, nm), err_msg=nm)
+    assert all(seen.values()), seen
+
+
+# --- Ch. 4: discrete MRAC with loop delay -------------------------------------------------------------------
+
+def test_mrac_discrete_kernel_single_car(request):
+    def edit(raw):
+        raw["vehicle"]["variations"][0]["times"] = [0.5, 0.8]
+
+    sim = Simulation([scenario(request.config.rootpath, "thesis_ch4_load_step", 1.5, edit)])
+    assert check_controller(sim) == 0.0
+
+
+def test_mrac_discrete_kernel_ensemble(request):
+    """Three cars (250/350/450 kg) on the dirt road with a low force limit (the clip engaged) and no delay."""
+    def edit(raw):
+        raw["sensors"] = [{"type": "body_pos"}, {"type": "road"}, {"type": "road_vel"}]
+        raw["controller"]["params"].update(delay_steps=0, u_max=300.0)
+
+    sim = Simulation(ensemble(request.config.rootpath, "thesis_ch4_dirt", 1.0, "sprung_mass", [250, 350, 450],
+                              edit))
+    assert check_controller(sim) == 0.0
+    py, kn = replay_and_sync(Simulation(ensemble(request.config.rootpath, "thesis_ch4_dirt", 0.5, "sprung_mass",
+                                                 [250, 350, 450], edit)))
+    for nm in ("theta", "P", "Y", "U", "Phi", "err"):
+        np.testing.assert_array_equal(getattr(kn.core, nm), getattr(py.core, nm), err_msg=nm)
+    np.testing.assert_array_equal(kn.targets, py.targets)
+    np.testing.assert_array_equal(kn.ref.x, py.ref.x)
+    assert_same_signals(py, kn)
