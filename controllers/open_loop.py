@@ -26,6 +26,9 @@ with ``s`` one of
 the front of a half car).  ``fade_in`` (s) ramps the signal in with a half cosine from ``start``.  The
 random signals are the same on every corner unless ``independent: true``.  The command's unit is the
 actuator's (N for a force actuator).
+
+All signals but ``random`` (drawn lazily from numpy Generators) and multisines of more than 128 lines have
+a compiled kernel (``_kernel``, see :mod:`suspension_sim.compiled`) that reproduces ``step``.
 """
 from __future__ import annotations
 
@@ -33,6 +36,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Literal, Optional, Union
 
+import numba
 import numpy as np
 from pydantic import Field, model_validator
 from scipy.signal import chirp, max_len_seq
@@ -135,12 +139,138 @@ def _load_table(path, mtime, time_column, columns):
     return t, np.column_stack(out[1:])
 
 
+# compiled kernel --------------------------------------------------------------------------------------------
+# parameter row: a fixed header, then amplitude and offset per corner, then the signal's data (multisine
+# lines f, a, φ; the PRBS sequence; the table's times and columns)
+_SIGNALS = ("constant", "step", "sine", "multisine", "chirp", "prbs", "table")
+_METHODS = ("linear", "quadratic", "logarithmic", "hyperbolic")
+(_H_SIG, _H_START, _H_HASSTOP, _H_STOP, _H_FADEON, _H_FADE, _H_HOLD, _H_FREQ, _H_PHASE, _H_METHOD, _H_F0, _H_F1,
+ _H_T1, _H_LEN, _H_K, _H_PREV) = range(16)
+_HEADER = 16
+
+
+@numba.njit(cache=True)
+def _pairwise_sum(a, lo, n):
+    """numpy's pairwise summation of a[lo:lo+n] (np.sum along a contiguous axis) for n <= 128, the same
+    additions in the same order (numpy splits longer sums in halves; not needed here, and a recursive
+    function does not survive numba's cache)."""
+    if n < 8:
+        res = -0.0
+        for i in range(n):
+            res += a[lo + i]
+        return res
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    i = 8
+    while i < n - (n % 8):
+        r0 += a[lo + i]
+        r1 += a[lo + i + 1]
+        r2 += a[lo + i + 2]
+        r3 += a[lo + i + 3]
+        r4 += a[lo + i + 4]
+        r5 += a[lo + i + 5]
+        r6 += a[lo + i + 6]
+        r7 += a[lo + i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[lo + i]
+        i += 1
+    return res
+
+
+@numba.njit(cache=True)
+def _chirp(t, f0, t1, f1, method, phi_deg):
+    """scipy.signal.chirp(t, f0, t1, f1, method, phi) for a scalar t, in scipy's order of operations."""
+    pi = np.pi
+    if method == 0:
+        beta = (f1 - f0) / t1
+        phase = 2 * pi * (f0 * t + 0.5 * beta * t * t)
+    elif method == 1:
+        beta = (f1 - f0) / (t1 ** 2.0)
+        phase = 2 * pi * (f0 * t + beta * t ** 3.0 / 3)
+    elif method == 2:
+        if f0 == f1:
+            phase = 2 * pi * f0 * t
+        else:
+            beta = t1 / np.log(f1 / f0)
+            phase = 2 * pi * beta * f0 * ((f1 / f0) ** (t / t1) - 1.0)
+    else:
+        if f0 == f1:
+            phase = 2 * pi * f0 * t
+        else:
+            sing = -f1 * t1 / (f0 - f1)
+            phase = 2 * pi * (-sing * f0) * np.log(np.abs(1 - t / sing))
+    return np.cos(phase + phi_deg * (np.pi / 180.0))
+
+
+@numba.njit(cache=True)
+def _kernel(t, y, p, st, u):
+    """Compiled ``OpenLoop.step`` for one car (all signals but ``random``); ``st`` is scratch for the
+    multisine terms."""
+    nc = u.shape[0]
+    sig = int(p[_H_SIG])
+    amp = _HEADER
+    off = _HEADER + nc
+    d = _HEADER + 2 * nc
+    if sig == 0:
+        for c in range(nc):
+            u[c] = p[off + c] + p[amp + c]
+        return
+    tau = t - p[_H_START]
+    active = tau >= 0
+    if p[_H_HASSTOP] != 0.0:
+        active = active and t < p[_H_STOP]
+    taum = max(tau, 0.0) if not np.isnan(tau) else tau
+    k = int(p[_H_K])
+    n = int(p[_H_LEN])
+    # s(τ) into st[0:k] (k = 1: shared by the corners)
+    if sig == 1:
+        st[0] = 1.0
+    elif sig == 2:
+        st[0] = np.sin(2 * np.pi * p[_H_FREQ] * taum + p[_H_PHASE])
+    elif sig == 3:
+        for j in range(n):
+            st[1 + j] = p[d + n + j] * np.sin(2 * np.pi * p[d + j] * taum + p[d + 2 * n + j])
+        st[0] = _pairwise_sum(st, 1, n)
+    elif sig == 4:
+        st[0] = _chirp(taum, p[_H_F0], p[_H_T1], p[_H_F1], int(p[_H_METHOD]), p[_H_PHASE] * (180.0 / np.pi) - 90.0)
+    elif sig == 5:
+        j = int(np.floor(taum / p[_H_HOLD] + 1e-9)) % n
+        for c in range(k):
+            st[c] = p[d + j * k + c]
+    else:
+        tt = p[d:d + n]
+        if p[_H_PREV] != 0.0:
+            j = np.searchsorted(tt, taum, side="right") - 1
+            j = min(max(j, 0), n - 1)
+            for c in range(k):
+                st[c] = p[d + n + c * n + j]
+        else:
+            for c in range(k):
+                st[c] = np.interp(taum, tt, p[d + n + c * n:d + n + (c + 1) * n])
+    if p[_H_FADEON] != 0.0:
+        fade = p[_H_FADE]
+        if fade > 0:
+            x = tau / max(fade, 1e-300)
+            x = min(max(x, 0.0), 1.0)
+            w = 0.5 - 0.5 * np.cos(np.pi * x)
+        else:
+            w = 1.0
+        for c in range(k):
+            st[c] = st[c] * w
+    for c in range(nc):
+        sc = st[c] if k > 1 else st[0]
+        u[c] = p[off + c] + (p[amp + c] * sc if active else 0.0)
+
+
 @CONTROLLERS.register("open_loop")
 class OpenLoop(Controller):
     """Open-loop command: constant, step, sine, multisine, chirp, PRBS, random or a CSV table (no sensors)."""
 
     Params = OpenLoopParams
     requires = ()
+    kernel = staticmethod(_kernel)
 
     def _corner_array(self, name):
         n, nc = self.ctx.n_cars, self.ctx.n_corners
@@ -152,6 +282,7 @@ class OpenLoop(Controller):
 
     def reset(self):
         p, n, nc = self.p, self.ctx.n_cars, self.ctx.n_corners
+        self.__dict__.pop("kernel", None)
         self.amp = self._corner_array("amplitude")
         self.off = self._corner_array("offset")
         self.sig = self.p.signal if isinstance(self.p.signal, str) else None
@@ -159,13 +290,15 @@ class OpenLoop(Controller):
             raise ScenarioError("all cars of an ensemble must use the same signal type", field="controller.params.signal")
         col = lambda v: np.asarray(v, dtype=float).reshape(-1, 1) if v is not None else None  # noqa: E731
         self.start_ = col(p.start)
-        self.stop_ = col(p.stop) if p.stop is not None else None
+        stop = [np.inf if v is None else v for v in p.stop] if isinstance(p.stop, list) else p.stop  # cars differ
+        self.stop_ = col(stop) if stop is not None else None
         self.fade = col(p.fade_in)
         seeds = np.asarray(p.seed, dtype=float).reshape(-1)
         seeds = np.broadcast_to(seeds, (n,)).astype(np.int64)
         self.rngs = [np.random.default_rng([int(s) & 0xFFFFFFFF, 4242]) for s in seeds]
         k = nc if p.independent else 1
-        self.hold = col(p.hold) if p.hold is not None else np.full((n, 1), self.ctx.control_dt)
+        hold = [self.ctx.control_dt if v is None else v for v in p.hold] if isinstance(p.hold, list) else p.hold
+        self.hold = col(hold) if hold is not None else np.full((n, 1), self.ctx.control_dt)
         if self.sig == "multisine":
             f = self._lines("frequencies")
             a = self._lines("amplitudes") if p.amplitudes is not None else np.ones_like(f)
@@ -180,6 +313,8 @@ class OpenLoop(Controller):
             else:
                 ph = self._lines("phases")
             self.ms = (f, a, ph)  # (n, L) each
+            if f.shape[1] > 128:
+                self.kernel = None  # the kernel reproduces numpy's sum of up to 128 lines only
         elif self.sig == "prbs":
             seqs = []
             for i, r in enumerate(self.rngs):
@@ -193,6 +328,8 @@ class OpenLoop(Controller):
                 seqs.append(np.stack(cols, axis=1))  # (period, k)
             self.seq = seqs
         elif self.sig == "random":
+            # the Gaussian samples are drawn lazily from numpy Generators as time goes on: no compiled kernel
+            self.kernel = None
             self.k = k
             self.noise = [np.zeros((0, k)) for _ in range(n)]
         elif self.sig == "table":
@@ -269,3 +406,57 @@ class OpenLoop(Controller):
             s = s * w
         u = self.off + np.where(active, self.amp * s, 0.0)
         return np.broadcast_to(u, (n, nc)).copy()
+
+    def kernel_data(self):
+        n, nc = self.ctx.n_cars, self.ctx.n_corners
+        if self.sig == "random":
+            raise NotImplementedError("open_loop 'random' has no compiled kernel (numpy Generator samples)")
+        if self.kernel is None:
+            raise NotImplementedError("open_loop kernel: multisine of more than 128 lines")
+        p_ = self.p
+
+        def per_car(v):
+            return np.broadcast_to(np.asarray(v, dtype=float).reshape(-1), (n,))
+
+        if self.sig == "multisine":
+            f, a, ph = (np.broadcast_to(x, (n, self.ms[0].shape[1])) for x in self.ms)
+            data = [np.concatenate([f[i], a[i], ph[i]]) for i in range(n)]
+            length, k, ks = f.shape[1], 1, 1 + f.shape[1]
+        elif self.sig == "prbs":
+            data = [q.reshape(-1) for q in self.seq]
+            length = [len(q) for q in self.seq]  # per car
+            ks = k = self.seq[0].shape[1]
+        elif self.sig == "table":
+            ks = k = self.tables[0][1].shape[1]
+            if any(vv.shape[1] != k for _, vv in self.tables):
+                raise NotImplementedError("open_loop kernel: table widths differ across the cars")
+            length = [len(tt) for tt, _ in self.tables]  # per car
+            data = [np.concatenate([tt, vv.T.reshape(-1)]) for tt, vv in self.tables]
+        else:
+            data = [np.zeros(0)] * n
+            length, k, ks = 0, 1, 1
+        kp = _HEADER + 2 * nc + max(len(x) for x in data)
+        p = np.zeros((n, kp))
+        p[:, _H_SIG] = _SIGNALS.index(self.sig)
+        p[:, _H_START] = self.start_[:, 0]
+        p[:, _H_HASSTOP] = float(self.stop_ is not None)
+        if self.stop_ is not None:
+            p[:, _H_STOP] = np.broadcast_to(self.stop_, (n, 1))[:, 0]
+        p[:, _H_FADEON] = float(np.any(self.fade > 0))
+        p[:, _H_FADE] = np.broadcast_to(self.fade, (n, 1))[:, 0]
+        p[:, _H_HOLD] = np.broadcast_to(self.hold, (n, 1))[:, 0]
+        if self.sig == "sine":
+            p[:, _H_FREQ] = per_car(p_.frequency)
+        if self.sig in ("sine", "chirp"):
+            p[:, _H_PHASE] = per_car(p_.phase)
+        if self.sig == "chirp":
+            p[:, _H_METHOD] = _METHODS.index(p_.method)
+            p[:, _H_F0], p[:, _H_F1], p[:, _H_T1] = per_car(p_.f0), per_car(p_.f1), per_car(p_.t1)
+        p[:, _H_LEN] = length
+        p[:, _H_K] = k
+        p[:, _H_PREV] = float(self.sig == "table" and p_.interpolation == "previous")
+        p[:, _HEADER:_HEADER + nc] = self.amp
+        p[:, _HEADER + nc:_HEADER + 2 * nc] = self.off
+        for i, x in enumerate(data):
+            p[i, _HEADER + 2 * nc:_HEADER + 2 * nc + len(x)] = x
+        return np.ascontiguousarray(p), np.zeros((n, ks))

@@ -78,3 +78,109 @@ def test_skyhook_kernel_groundhook_without_clip_half_car_exact():
         controller=dict(type="skyhook", params=dict(c_sky=2000.0, c_ground=500.0)),
         sim=dict(duration=0.3, dt=0.0005, control_dt=0.001, log_dt=0.001)))
     assert check_controller(Simulation([sc, sc.model_copy(deep=True)])) == 0.0
+
+
+# open loop -----------------------------------------------------------------------------------------------
+
+def _rig(vehicle="quarter_car", duration=0.5, **params):
+    return parse_scenario(dict(
+        vehicle=dict(model=vehicle), road=dict(type="flat"), sensors=UNUSED,
+        controller=dict(type="open_loop", params=params),
+        sim=dict(duration=duration, dt=0.0005, control_dt=0.001, log_dt=0.001)))
+
+
+def _ensemble(*param_sets, **kw):
+    return Simulation([_rig(**kw, **ps) for ps in param_sets])
+
+
+def test_open_loop_kernel_exact_signals():
+    """constant, step/pulse (before, during, after), PRBS (shared and per corner) and tables (linear and
+    zero-order hold, one column or one per corner, tables of different lengths, before/inside/after the
+    table): + − × ÷ and comparisons only, so exact."""
+    assert check_controller(_ensemble(dict(signal="constant", amplitude=20.0, offset=5.0),
+                                      dict(signal="constant", amplitude=[1.0, -3.0], offset=[0.5, 0.0]),
+                                      dict(signal="constant", amplitude=-7.0), vehicle="half_car", duration=0.1)) == 0.0
+    assert check_controller(_ensemble(dict(signal="step", amplitude=100.0, offset=-1.0, start=0.1, stop=0.3),
+                                      dict(signal="step", amplitude=-40.0, offset=2.0, start=0.25, stop=0.26),
+                                      dict(signal="step", amplitude=10.0, offset=0.0, start=0.0, stop=0.45))) == 0.0
+    assert check_controller(_ensemble(dict(signal="step", amplitude=3.0, start=0.2))) == 0.0  # no stop
+    prbs = (dict(signal="prbs", amplitude=7.0, nbits=4, hold=0.004, seed=3, start=0.01),
+            dict(signal="prbs", amplitude=2.0, nbits=4, hold=0.002, seed=5, offset=1.0),
+            dict(signal="prbs", amplitude=3.0, nbits=4, seed=9, stop=0.3))  # cars with and without stop and hold
+    u = np.array([s["u"][:, 0] for s in _python_run(_ensemble(*prbs))])
+    assert set(np.unique(u[-10:, 0])) == {-7.0, 7.0} and set(np.unique(u[-10:, 1])) == {-1.0, 3.0}
+    assert np.all(u[-10:, 2] == 0.0)  # stopped
+    assert check_controller(_ensemble(*prbs)) == 0.0
+    assert check_controller(_ensemble(dict(signal="prbs", amplitude=[7.0, 1.0], nbits=5, seed=1, independent=True),
+                                      dict(signal="prbs", amplitude=4.0, nbits=5, seed=2, independent=True),
+                                      dict(signal="prbs", amplitude=4.0, nbits=5, seed=3, independent=True, hold=0.005),
+                                      vehicle="half_car", duration=0.2)) == 0.0
+
+
+@pytest.fixture
+def tables(tmp_path):
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    a.write_text("time,force,front,rear\n0,0,1,2\n0.05,10,-1,3\n0.1,-5,4,4\n0.2,20,0,1\n0.3,0,2,-2\n")
+    b.write_text("time,force,front,rear\n0,3,0,0\n0.1,-3,1,1\n0.15,1,2,0\n")
+    return str(a), str(b)
+
+
+def test_open_loop_kernel_exact_tables(tables):
+    a, b = tables
+    for interp in ("linear", "previous"):
+        assert check_controller(_ensemble(dict(signal="table", file=a, column="force", interpolation=interp, start=0.05),
+                                          dict(signal="table", file=b, column="force", interpolation=interp,
+                                               amplitude=2.0, offset=1.0),
+                                          dict(signal="table", file=a, column="force", interpolation=interp,
+                                               start=0.1, stop=0.35), duration=0.45)) == 0.0
+        assert check_controller(_ensemble(dict(signal="table", file=a, column=["front", "rear"], interpolation=interp),
+                                          dict(signal="table", file=b, column=["front", "rear"], interpolation=interp,
+                                               start=0.02),
+                                          dict(signal="table", file=a, column=["front", "rear"], interpolation=interp, offset=[0.0, 2.0],
+                                               amplitude=[1.0, -1.0]),
+                                          vehicle="half_car", duration=0.4)) == 0.0
+
+
+# the laws below call sin/cos/log/pow, evaluated by numpy's (possibly vectorised) routines in the reference
+# and by the C library in the kernel: they may differ in the last bit; allowed 1e-12 of the command's bound
+REL = 1e-12
+
+
+def test_open_loop_kernel_sine_multisine_fade():
+    bound = 50.0 + 3.0
+    assert check_controller(_ensemble(dict(signal="sine", amplitude=50.0, frequency=3.0, phase=0.4, start=0.1,
+                                           fade_in=0.2),
+                                      dict(signal="sine", amplitude=20.0, frequency=7.0, offset=3.0, stop=0.4),
+                                      dict(signal="sine", amplitude=5.0, frequency=1.0, start=0.05, fade_in=0.0))
+                            ) <= REL * bound
+    # 4 lines (sequential sum) and 11 lines (numpy's pairwise sum with 8 accumulators)
+    f4, f11 = [1.0, 2.0, 3.5, 5.0], [1.0 + 1.3 * i for i in range(11)]
+    a4 = [1, 0.5, 0.2, 2]
+    assert check_controller(_ensemble(dict(signal="multisine", frequencies=f4, amplitudes=a4, amplitude=2.0),
+                                      dict(signal="multisine", frequencies=f4, amplitudes=a4, amplitude=3.0, start=0.1),
+                                      dict(signal="multisine", frequencies=f4, amplitudes=a4, fade_in=0.1))
+                            ) <= REL * 3.0 * 2 * 4
+    assert check_controller(_ensemble(dict(signal="multisine", frequencies=f4, phases="zero"), duration=0.2)
+                            ) <= REL * 4
+    assert check_controller(_ensemble(dict(signal="multisine", frequencies=f11, amplitude=2.0, phases="random", seed=1),
+                                      dict(signal="multisine", frequencies=f11, amplitude=1.0, phases="random", seed=2),
+                                      dict(signal="multisine", frequencies=f11, amplitude=4.0, phases="random", seed=3,
+                                           stop=0.3))
+                            ) <= REL * 4.0 * 11
+
+
+@pytest.mark.parametrize("method", ["linear", "quadratic", "logarithmic", "hyperbolic"])
+def test_open_loop_kernel_chirp(method):
+    assert check_controller(_ensemble(dict(signal="chirp", amplitude=3.0, f0=0.5, f1=20.0, t1=0.3, method=method),
+                                      dict(signal="chirp", amplitude=1.0, f0=5.0, f1=2.0, t1=0.2, method=method,
+                                           phase=0.3, start=0.05),
+                                      dict(signal="chirp", amplitude=2.0, f0=4.0, f1=4.0, t1=0.2, method=method,
+                                           fade_in=0.1), duration=0.3)) <= REL * 3.0
+
+
+def test_open_loop_random_has_no_kernel():
+    sim = _ensemble(dict(signal="random", amplitude=1.0))
+    assert sim.controller.kernel is None
+    with pytest.raises(NotImplementedError):
+        sim.controller.kernel_data()
+    assert _ensemble(dict(signal="sine", amplitude=1.0, frequency=1.0)).controller.kernel is not None
