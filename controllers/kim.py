@@ -62,6 +62,7 @@ estimates (Table 1 by default: the paper's simulations give no initial error) an
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 from pydantic import Field
 
@@ -102,12 +103,105 @@ def _flag(v, n):
     return np.asarray(v if isinstance(v, (list, tuple)) else [v] * n, dtype=float).reshape(n, 1)
 
 
+# compiled kernel --------------------------------------------------------------------------------------------
+(_P_CSKY, _P_BS, _P_KD, _P_FD, _P_ANYFD, _P_ALPHA1, _P_KPF, _P_AREA, _P_PS, _P_G1, _P_G2, _P_G3, _P_ADAPT,
+ _P_ANYADAPT, _P_GMIN, _P_RP, _P_ANYRP, _P_TC, _P_OX, _P_OS, _P_OVREL, _P_OVB, _P_OXV, _P_OAB, _P_OAW) = range(25)
+_NP = 25
+# state row: [has_prev] then blocks of n_corners
+_S_BLOCKS = ("x_hat", "s_prev", "Y3_prev", "F_d", "F_a", "force_error", "p_e", "u_s", "a1_hat", "a2_hat",
+             "a3_hat", "u")
+_SB = {name: k for k, name in enumerate(_S_BLOCKS)}
+
+
+@numba.njit(cache=True)
+def _sign(x):
+    if x > 0:
+        return 1.0
+    if x < 0:
+        return -1.0
+    if x == 0:
+        return 0.0
+    return x  # nan
+
+
+@numba.njit(cache=True)
+def _kernel(t, y, p, st, u):
+    """Compiled ``Kim.step`` for one car (same operations in the same order as the numpy law)."""
+    nc = u.shape[0]
+    c_sky, b_s, k_d, area = p[_P_CSKY], p[_P_BS], p[_P_KD], p[_P_AREA]
+    Tc = p[_P_TC]
+    has_prev = st[0] != 0.0
+    for c in range(nc):
+        x = y[int(p[_P_OX]) + c]
+        vrel = y[int(p[_P_OVREL]) + c]
+        vb = y[int(p[_P_OVB]) + c]
+        XV = y[int(p[_P_OXV]) + c]
+        if not has_prev:
+            st[1 + 0 * nc + c] = x  # x_hat starts at the measured force
+        xd = -c_sky * vb - b_s * vrel
+        xe = x - xd
+        v = -k_d * xe
+        if p[_P_ANYFD] != 0.0:
+            ab = y[int(p[_P_OAB]) + c]
+            aw = y[int(p[_P_OAW]) + c]
+            v = v + p[_P_FD] * (-c_sky * ab - b_s * (ab - aw))
+        Y1 = x
+        Y2 = area * vrel
+        if p[_P_ANYRP] != 0.0:
+            Y2 = area * (vrel + p[_P_RP] * (y[int(p[_P_OAB]) + c] - y[int(p[_P_OAW]) + c]))
+        sq = np.sqrt(np.abs(p[_P_PS] - _sign(XV) * x / area))
+        th1 = -st[1 + 8 * nc + c]
+        th2 = -st[1 + 9 * nc + c]
+        th3 = st[1 + 10 * nc + c]
+        f_hat = th1 * Y1 + th2 * Y2
+        g = th3 * sq
+        g_min = p[_P_GMIN]
+        g_hat = g if (g >= g_min or g != g) else g_min  # np.maximum (nan propagates)
+        us = (v - f_hat) / g_hat
+        uc = (1.0 + p[_P_KPF]) * us - p[_P_KPF] * XV
+        s_now = y[int(p[_P_OS]) + c]
+        x_hat = st[1 + 0 * nc + c]
+        if has_prev:
+            x0 = st[1 + 4 * nc + c]  # F_a of the previous step
+            s0 = st[1 + 1 * nc + c]
+            Y3p = st[1 + 2 * nc + c]
+            pe0 = st[1 + 6 * nc + c]
+            Y1p = x0
+            Y2i = area * (s_now - s0) / Tc
+            xhat_dot = -p[_P_ALPHA1] * pe0 + th1 * Y1p + th2 * Y2i + th3 * Y3p
+            if p[_P_ANYADAPT] != 0.0:
+                ad = p[_P_ADAPT]
+                sc = -A1
+                th1 = th1 - ad * Tc * p[_P_G1] * sc * (sc * Y1p) * pe0
+                sc = -A2
+                th2 = th2 - ad * Tc * p[_P_G2] * sc * (sc * Y2i) * pe0
+                sc = A3
+                th3 = th3 - ad * Tc * p[_P_G3] * sc * (sc * Y3p) * pe0
+                st[1 + 8 * nc + c] = -th1
+                st[1 + 9 * nc + c] = -th2
+                st[1 + 10 * nc + c] = th3
+            x_hat = x_hat + Tc * xhat_dot
+            st[1 + 0 * nc + c] = x_hat
+        pe = x_hat - x
+        st[1 + 1 * nc + c] = s_now
+        st[1 + 2 * nc + c] = sq * us
+        st[1 + 3 * nc + c] = xd
+        st[1 + 4 * nc + c] = x
+        st[1 + 5 * nc + c] = xe
+        st[1 + 6 * nc + c] = pe
+        st[1 + 7 * nc + c] = us
+        st[1 + 11 * nc + c] = uc
+        u[c] = uc
+    st[0] = 1.0
+
+
 @CONTROLLERS.register("kim")
 class Kim(Controller):
     """Kim (1996): indirect adaptive force control (estimator + gradient law) of the hydraulic actuator,
     sky-hook desired force; command = spool input (m)."""
 
     Params = KimParams
+    kernel = staticmethod(_kernel)
 
     @classmethod
     def required_sensors(cls, raw):
@@ -202,3 +296,68 @@ class Kim(Controller):
             "F_d": self.xd, "F_a": self.x, "force_error": self.xe, "p_e": self.pe, "u_s": self.us,
             "a1_hat": -self.theta[0], "a2_hat": -self.theta[1], "a3_hat": self.theta[2],
         }
+
+    # compiled kernel ------------------------------------------------------------------------------------
+    def _offsets(self, name):
+        """Per-car start of sensor ``name`` (one name, or one per car) in the kernel's reading vector."""
+        n = self.ctx.n_cars
+        names = name if isinstance(name, list) else [name] * n
+        try:
+            return np.array([self.ctx.sensor_slice(nm)[0] for nm in names], dtype=float)
+        except KeyError as err:  # read from the full plant state (controller.full_state): not in y
+            raise NotImplementedError(f"kim kernel needs the declared sensor {err.args[0]!r}") from None
+
+    def kernel_data(self):
+        n, nc, p = self.ctx.n_cars, self.ctx.n_corners, self.p
+
+        def col(v):
+            return np.broadcast_to(np.asarray(v, dtype=float).reshape(-1), (n,))
+
+        P = np.zeros((n, _NP))
+        P[:, _P_CSKY], P[:, _P_BS], P[:, _P_KD] = col(p.c_sky), col(p.b_s), col(p.k_d)
+        P[:, _P_FD] = self.fd_dot[:, 0]
+        P[:, _P_ANYFD] = float(np.any(self.fd_dot))
+        P[:, _P_ALPHA1], P[:, _P_KPF] = col(p.alpha1), col(p.k_pf)
+        P[:, _P_AREA], P[:, _P_PS] = col(p.area), col(p.supply_pressure)
+        P[:, _P_G1], P[:, _P_G2], P[:, _P_G3] = col(p.gain_a1), col(p.gain_a2), col(p.gain_a3)
+        P[:, _P_ADAPT] = self.adaptive[:, 0]
+        P[:, _P_ANYADAPT] = float(np.any(self.adaptive))
+        P[:, _P_GMIN] = col(p.g_min_fraction * A3 * np.sqrt(p.supply_pressure))
+        P[:, _P_RP] = col(p.rate_prediction)
+        P[:, _P_ANYRP] = float(np.any(p.rate_prediction > 0))
+        P[:, _P_TC] = self.ctx.control_dt
+        P[:, _P_OX] = self._offsets(p.force_sensor)
+        P[:, _P_OS] = self._offsets("travel")
+        P[:, _P_OVREL] = self._offsets("travel_rate")
+        P[:, _P_OVB] = self._offsets("corner_body_vel")
+        P[:, _P_OXV] = self._offsets(p.spool_sensor)
+        if P[0, _P_ANYFD] or P[0, _P_ANYRP]:
+            P[:, _P_OAB] = self._offsets("corner_body_acc")
+            P[:, _P_OAW] = self._offsets("wheel_acc")
+        else:
+            P[:, _P_OAB] = P[:, _P_OAW] = -1.0
+        S = np.zeros((n, 1 + len(_S_BLOCKS) * nc))
+        blocks = {"F_d": self.xd, "F_a": self.x, "force_error": self.xe, "p_e": self.pe, "u_s": self.us,
+                  "a1_hat": -self.theta[0], "a2_hat": -self.theta[1], "a3_hat": self.theta[2], "u": self.u}
+        if self._prev is not None:
+            S[:, 0] = 1.0
+            x0, s0, _, Y3p, _ = self._prev
+            blocks.update(x_hat=self.x_hat, s_prev=s0, Y3_prev=Y3p, F_a=x0)
+        for name, v in blocks.items():
+            k = _SB[name]
+            S[:, 1 + k * nc:1 + (k + 1) * nc] = np.broadcast_to(v, (n, nc))
+        return np.ascontiguousarray(P), S
+
+    def kernel_signals(self):
+        nc = self.ctx.n_corners
+        return {name: (1 + _SB[name] * nc, 1 + (_SB[name] + 1) * nc)
+                for name in ("F_d", "F_a", "force_error", "p_e", "u_s", "a1_hat", "a2_hat", "a3_hat")}
+
+    def kernel_sync(self, st):
+        nc = self.ctx.n_corners
+        b = {name: np.array(st[:, 1 + k * nc:1 + (k + 1) * nc]) for k, name in enumerate(_S_BLOCKS)}
+        self.theta = [-b["a1_hat"], -b["a2_hat"], b["a3_hat"].copy()]
+        self.xd, self.x, self.xe, self.pe, self.us, self.u = b["F_d"], b["F_a"], b["force_error"], b["p_e"], b["u_s"], b["u"]
+        if st[0, 0] != 0.0:
+            self.x_hat = b["x_hat"]
+            self._prev = (b["F_a"], b["s_prev"], b["F_a"], b["Y3_prev"], b["p_e"])
