@@ -102,20 +102,34 @@ class Logger:
             self._corner("wheel_acc", j, qacc[P.wheel_v])
 
     def frame(self, i: int) -> pd.DataFrame:
-        arrs = [self.t] + [arr[i] for arr in self.ch.values()]
-        if all(a.dtype == np.float64 for a in arrs):
-            # one float block: ~3x cheaper than a dict of columns (matters for batches of short runs)
-            block = np.empty((len(self.t), len(arrs)))
-            for k, a in enumerate(arrs):
-                block[:, k] = a
-            return pd.DataFrame(block, columns=["t", *self.ch], copy=False)
-        return pd.DataFrame(dict(zip(["t", *self.ch], arrs)))
+        return _frame(["t", *self.ch], [self.t] + [arr[i] for arr in self.ch.values()])
+
+
+def _frame(names: list, arrs: list) -> pd.DataFrame:
+    if all(a.dtype == np.float64 for a in arrs):
+        # one float block: ~3x cheaper than a dict of columns (matters for batches of short runs)
+        block = np.empty((len(arrs[0]), len(arrs)))
+        for k, a in enumerate(arrs):
+            block[:, k] = a
+        return pd.DataFrame(block, columns=names, copy=False)
+    return pd.DataFrame(dict(zip(names, arrs)))
+
+
+def frame_from_columns(columns: dict) -> pd.DataFrame:
+    """The DataFrame of one car's log from ``name -> 1-D array`` (``t`` first), as :meth:`Logger.frame`
+    builds it."""
+    return _frame(list(columns), list(columns.values()))
 
 
 @dataclass
 class Result:
     """One car's run: ``timeseries`` (DataFrame), ``metrics`` (dict), the resolved ``scenario`` and
-    ``info`` (static loads, wall time, whether the controller had full-state access, versions)."""
+    ``info`` (static loads, wall time, whether the controller had full-state access, versions).
+
+    Results made from a logger (:meth:`from_logger`, :meth:`many_from_logger`) build their DataFrame only
+    when ``timeseries`` (``ts``) is first read (batches without time series never need it): until then they
+    hold views of the logger's arrays (one ensemble's logs, shared by its cars; the logger itself and the
+    simulation are not kept).  Pickling builds it first."""
 
     scenario: object
     timeseries: pd.DataFrame
@@ -124,38 +138,162 @@ class Result:
 
     @classmethod
     def from_logger(cls, logger: Logger, i: int, sim, wall: float) -> "Result":
-        P = sim.plant
-        info = {
-            "model": P.vcls.name,
-            "suffixes": P.suffixes,
-            "corners": [c.name for c in P.corners],
-            # corner geometry (m; x forward from the c.g., y left) and road track, for the 3D viewer
-            "corner_x": [float(c.x) for c in P.corners],
-            "corner_y": [float(c.y) for c in P.corners],
-            "corner_track": [int(c.track) for c in P.corners],
-            "static_tire_force": {s: float(P.static_tire[i, c]) for c, s in enumerate(P.suffixes)},
-            "static_suspension_force": {s: float(P.static_susp[i, c]) for c, s in enumerate(P.suffixes)},
-            "stop_gap": _stop_gaps(sim, i),
-            "stop_gap_sides": _stop_gap_sides(sim, i),
-            "full_state_access": bool(sim.full_state),
-            "wall_time_s": wall / P.n,
-            "ensemble_size": P.n,
-            "versions": versions(),
-        }
-        r = cls(scenario=sim.scenarios[i], timeseries=logger.frame(i), info=info)
-        r.metrics = compute_metrics(r)
+        """Car ``i``'s result.  The results and metrics of all cars of the logger are computed together on
+        the first call (vectorised over the ensemble, :meth:`many_from_logger`) and handed out one by one
+        to the calls for each car, so a loop over the cars costs one ensemble computation; the logger's
+        arrays must not change between those calls (a new run needs a new :class:`Logger`)."""
+        key = (id(sim), float(wall), id(logger.t), tuple(id(a) for a in logger.ch.values()))
+        cache = logger.__dict__.get("_results_cache")
+        if cache is None or cache[0] != key or i not in cache[1]:
+            cache = logger.__dict__["_results_cache"] = (key, dict(enumerate(cls.many_from_logger(logger, sim, wall))))
+        r = cache[1].pop(i)
+        if not cache[1]:
+            del logger.__dict__["_results_cache"]
         return r
+
+    @classmethod
+    def many_from_logger(cls, logger: Logger, sim, wall: float) -> list["Result"]:
+        """Every car's result, metrics computed for the whole ensemble at once where the metric has an
+        ensemble version (bit-identical to the per-car computation, see ``metrics/base.py``); time series
+        built on demand."""
+        t = logger.t
+        ch = dict(logger.ch)  # a snapshot of the channel dict (the arrays are shared, not copied)
+        infos = _infos(sim, wall)
+        gaps = [inf["stop_gap"] for inf in infos]
+        out = []
+        for i, info in enumerate(infos):
+            r = cls.__new__(cls)
+            r.scenario = sim.scenarios[i]
+            r.__dict__["_ts"] = None
+            r.__dict__["_src"] = (t, ch, i)
+            r.info = info
+            r.metrics = {}
+            out.append(r)
+        metrics = compute_metrics_many(t, ch, logger.sfx, infos, gaps, [r.view for r in out])
+        for r, m in zip(out, metrics):
+            r.metrics = m
+        return out
 
     @property
     def ts(self) -> pd.DataFrame:
         return self.timeseries
 
+    def _columns(self) -> dict | None:
+        src = self.__dict__.get("_src")
+        if src is None or self.__dict__.get("_ts") is not None:
+            return None
+        t, ch, i = src
+        cols = {"t": t}
+        cols.update((k, a[i]) for k, a in ch.items())
+        return cols
+
     def view(self):
         from .metrics.base import RunView
 
-        return RunView(ts=self.timeseries, suffixes=self.info["suffixes"],
+        cols = self._columns()
+        return RunView(ts=None if cols is not None else self.timeseries, suffixes=self.info["suffixes"],
                        static_tire_force=self.info["static_tire_force"], stop_gap=self.info.get("stop_gap", {}),
-                       info=self.info)
+                       info=self.info, columns=cols)
+
+    def __getstate__(self):
+        self.timeseries  # noqa: B018 - build the DataFrame: never pickle the whole ensemble's logs
+        return self.__dict__
+
+    def __setstate__(self, state):
+        state = dict(state)
+        if "timeseries" in state:  # pickled before the time series became lazy
+            state["_ts"], state["_src"] = state.pop("timeseries"), None
+        self.__dict__.update(state)
+
+
+def _ts_get(self) -> pd.DataFrame:
+    d = self.__dict__
+    ts = d.get("_ts")
+    if ts is None:
+        src = d.get("_src")
+        if src is not None:
+            t, ch, i = src
+            ts = d["_ts"] = _frame(["t", *ch], [t] + [arr[i] for arr in ch.values()])
+            d["_src"] = None
+    return ts
+
+
+def _ts_set(self, value) -> None:
+    self.__dict__["_ts"] = value
+    self.__dict__["_src"] = None
+
+
+# ``timeseries`` stays a dataclass field (constructor, repr, fields() unchanged) read through a property,
+# so that results made from a logger build their DataFrame only when it is used
+Result.timeseries = property(_ts_get, _ts_set, doc="one car's log as a DataFrame (columns: see the module doc)")
+
+
+def _infos(sim, wall: float) -> list[dict]:
+    """Every car's ``Result.info`` (the pieces shared by the ensemble computed once)."""
+    P = sim.plant
+    n = P.n
+    sfx = P.suffixes
+    model = P.vcls.name
+    corners = [c.name for c in P.corners]
+    cx = [float(c.x) for c in P.corners]
+    cy = [float(c.y) for c in P.corners]
+    ct = [int(c.track) for c in P.corners]
+    st = np.asarray(P.static_tire, dtype=float).reshape(n, len(sfx)).tolist()
+    ss = np.asarray(P.static_susp, dtype=float).reshape(n, len(sfx)).tolist()
+    gaps, sides = _stop_gaps_all(sim), _stop_gap_sides_all(sim)
+    full = bool(sim.full_state)
+    w = wall / P.n
+    out = []
+    for i in range(n):
+        out.append({
+            "model": model,
+            "suffixes": P.suffixes,
+            "corners": list(corners),
+            # corner geometry (m; x forward from the c.g., y left) and road track, for the 3D viewer
+            "corner_x": list(cx),
+            "corner_y": list(cy),
+            "corner_track": list(ct),
+            "static_tire_force": dict(zip(sfx, st[i])),
+            "static_suspension_force": dict(zip(sfx, ss[i])),
+            "stop_gap": gaps[i],
+            "stop_gap_sides": sides[i],
+            "full_state_access": full,
+            "wall_time_s": w,
+            "ensemble_size": P.n,
+            "versions": versions(),
+        })
+    return out
+
+
+def _stop_gaps_all(sim) -> list[dict]:
+    """:func:`_stop_gaps` of every car."""
+    n = sim.plant.n
+    out: list[dict] = [{} for _ in range(n)]
+    for eff, sel in sim.effects:
+        gap = getattr(eff.p, "gap", None)
+        if eff.name == "bump_stop" and gap is not None:
+            g = np.broadcast_to(np.asarray(gap, dtype=float), (n, len(sel))).tolist()
+            for k, c in enumerate(sel):
+                s = sim.plant.suffixes[c]
+                for i in range(n):
+                    out[i][s] = g[i][k]
+    return out
+
+
+def _stop_gap_sides_all(sim) -> list[dict]:
+    """:func:`_stop_gap_sides` of every car."""
+    n = sim.plant.n
+    out: list[dict] = [{} for _ in range(n)]
+    for eff, sel in sim.effects:
+        g_c, g_e = getattr(eff, "g_c", None), getattr(eff, "g_e", None)
+        if eff.name == "bump_stop" and g_c is not None and g_e is not None:
+            g_c = np.broadcast_to(np.asarray(g_c, dtype=float), (n, len(sel))).tolist()
+            g_e = np.broadcast_to(np.asarray(g_e, dtype=float), (n, len(sel))).tolist()
+            for k, c in enumerate(sel):
+                s = sim.plant.suffixes[c]
+                for i in range(n):
+                    out[i][s] = [g_c[i][k], g_e[i][k]]
+    return out
 
 
 def _stop_gaps(sim, i) -> dict:
@@ -183,6 +321,7 @@ def _stop_gap_sides(sim, i) -> dict:
 
 
 def compute_metrics(result: Result) -> dict:
+    """Every registered metric of one result (metrics whose channels the log lacks are skipped)."""
     from .registry import METRICS
 
     view = result.view()
@@ -194,6 +333,54 @@ def compute_metrics(result: Result) -> dict:
             continue  # the channel this metric needs is not in this model's log
         out.update({k: float(v) for k, v in vals.items()})
     return out
+
+
+def compute_metrics_many(t, channels: dict, suffixes, infos: list, stop_gaps: list, views: list) -> list[dict]:
+    """:func:`compute_metrics` of every car of an ensemble: ``channels`` name -> ``(n_cars, n_log)``,
+    ``t`` the common time axis, ``infos``/``stop_gaps`` per car, ``views[i]()`` car i's :class:`RunView`
+    (made only for metrics without an ensemble version).  Same keys, order and values as car by car."""
+    from .metrics.base import EnsembleView
+    from .registry import METRICS
+
+    n = len(infos)
+    outs: list[dict] = [{} for _ in range(n)]
+    cache: dict = {}
+
+    def view(i):
+        if i not in cache:
+            cache[i] = views[i]()
+        return cache[i]
+
+    ens = None
+    t = np.asarray(t)
+    if len(t) >= 2 and t.dtype == np.float64 and all(a.dtype == np.float64 for a in channels.values()):
+        chans = {k: np.ascontiguousarray(a) for k, a in channels.items()}  # rows contiguous: pairwise sums per car
+        static = {s: np.array([float(inf["static_tire_force"][s]) for inf in infos])
+                  for s in suffixes if all(s in inf.get("static_tire_force", {}) for inf in infos)}
+        ens = EnsembleView(channels=chans, t=t, suffixes=list(suffixes), static_tire_force=static,
+                           stop_gaps=stop_gaps, infos=infos)
+    for name, fn in METRICS.items():
+        many = getattr(fn, "ensemble", None) if ens is not None else None
+        if many is not None:
+            try:
+                vals = many(ens)
+            except KeyError:
+                continue  # the channel this metric needs is not in this model's log
+            except NotImplementedError:
+                pass  # this ensemble needs the car-by-car path
+            else:
+                cols = [(k, np.broadcast_to(np.asarray(v, dtype=float), (n,)).tolist()) for k, v in vals.items()]
+                for i, o in enumerate(outs):
+                    for k, lst in cols:
+                        o[k] = lst[i]
+                continue
+        for i, o in enumerate(outs):
+            try:
+                vals = fn(view(i))
+            except KeyError:
+                continue
+            o.update({k: float(v) for k, v in vals.items()})
+    return outs
 
 
 def versions() -> dict:

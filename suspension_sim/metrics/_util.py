@@ -7,8 +7,9 @@ from .base import RunView
 
 
 def duration(run: RunView) -> float:
-    """Length of the record in s, each log sample standing for one log step (N·dt)."""
-    return len(run.ts) * run.dt
+    """Length of the record in s, each log sample standing for one log step (N·dt); also of an
+    :class:`~.base.EnsembleView` (all its cars share the time axis)."""
+    return run.n_samples * run.dt
 
 
 def fraction(mask) -> float:

@@ -1,7 +1,7 @@
 """RMS and peak actuator force per corner."""
 from ..registry import METRICS
 from ._util import peak
-from .base import RunView, rms
+from .base import EnsembleView, RunView, ensemble_version, peak_rows, rms, rms_rows
 
 
 @METRICS.register("actuator_force")
@@ -9,7 +9,17 @@ def actuator_force(run: RunView) -> dict:
     """RMS and peak (max |F|) delivered actuator force per corner (N); zero for a passive run."""
     out = {}
     for s in run.suffixes:
-        f = run.ts[f"actuator_force{s}"].to_numpy()
+        f = run.col(f"actuator_force{s}")
         out[f"actuator_force_rms{s}"] = rms(f)
         out[f"actuator_force_peak{s}"] = peak(f)
+    return out
+
+
+@ensemble_version(actuator_force)
+def _actuator_force_many(ens: EnsembleView) -> dict:
+    out = {}
+    for s in ens.suffixes:
+        f = ens.col(f"actuator_force{s}")
+        out[f"actuator_force_rms{s}"] = rms_rows(f)
+        out[f"actuator_force_peak{s}"] = peak_rows(f)
     return out

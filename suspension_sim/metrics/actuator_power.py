@@ -4,7 +4,7 @@ from scipy import integrate
 
 from ..registry import METRICS
 from ._util import peak
-from .base import RunView
+from .base import EnsembleView, RunView, ensemble_version, peak_rows
 
 
 @METRICS.register("actuator_power")
@@ -24,10 +24,10 @@ def actuator_power(run: RunView) -> dict:
     actuator model's business).  Multi-corner models also get ``..._total`` sums over corners.
     """
     out = {}
-    t = run.ts["t"].to_numpy()
+    t = run.col("t")
     tot = {"actuator_power_mean_abs": 0.0, "actuator_power_mean_pos": 0.0, "actuator_energy": 0.0}
     for s in run.suffixes:
-        p = run.ts[f"actuator_force{s}"].to_numpy() * run.ts[f"travel_rate{s}"].to_numpy()
+        p = run.col(f"actuator_force{s}") * run.col(f"travel_rate{s}")
         vals = {
             "actuator_power_mean_abs": float(np.mean(np.abs(p))) if p.size else float("nan"),
             "actuator_power_mean_pos": float(np.mean(np.clip(p, 0.0, None))) if p.size else float("nan"),
@@ -38,5 +38,27 @@ def actuator_power(run: RunView) -> dict:
             tot[k] += v
         out[f"actuator_power_peak{s}"] = peak(p)
     if len(run.suffixes) > 1:
+        out.update({f"{k}_total": v for k, v in tot.items()})
+    return out
+
+
+@ensemble_version(actuator_power)
+def _actuator_power_many(ens: EnsembleView) -> dict:
+    out = {}
+    t = ens.t
+    tot = {"actuator_power_mean_abs": 0.0, "actuator_power_mean_pos": 0.0, "actuator_energy": 0.0}
+    for s in ens.suffixes:
+        p = ens.col(f"actuator_force{s}") * ens.col(f"travel_rate{s}")
+        n, m = p.shape
+        vals = {
+            "actuator_power_mean_abs": np.mean(np.abs(p), axis=1) if m else np.full(n, np.nan),
+            "actuator_power_mean_pos": np.mean(np.clip(p, 0.0, None), axis=1) if m else np.full(n, np.nan),
+            "actuator_energy": integrate.trapezoid(np.abs(p), t, axis=-1) if m > 1 else np.zeros(n),
+        }
+        for k, v in vals.items():
+            out[f"{k}{s}"] = v
+            tot[k] = tot[k] + v
+        out[f"actuator_power_peak{s}"] = peak_rows(p)
+    if len(ens.suffixes) > 1:
         out.update({f"{k}_total": v for k, v in tot.items()})
     return out

@@ -6,8 +6,26 @@ suffix, e.g. ``travel_rms_front``)::
 
     @METRICS.register("body_acc")
     def body_acc(run: RunView) -> dict[str, float]:
-        a = run.ts["body_acc"].to_numpy()
+        a = run.col("body_acc")          # or run.ts["body_acc"].to_numpy()
         return {"body_acc_rms": rms(a), "body_acc_peak": float(np.max(np.abs(a)))}
+
+``run.col(name)`` returns a channel as a 1-D float array (``KeyError`` when the log has no such channel: the
+metric is then skipped for that model); ``run.ts`` is the whole log as a pandas DataFrame, built on demand
+when the view was made from arrays (it costs more than the metric itself for short runs).
+
+Optionally a metric also gets an *ensemble* version that computes it for every car of an ensemble at once
+from ``(n_cars, n_log)`` arrays (:class:`EnsembleView`) and returns ``key -> (n_cars,) array``, with the same
+keys in the same order as the per-car function and **bit-identical** values (the same floating-point
+operations on every car's samples: numpy reductions along the contiguous last axis sum in the same pairwise
+order as on one car's 1-D array; ``tests/test_results_fast.py`` checks it against the per-car function)::
+
+    @ensemble_version(body_acc)
+    def _body_acc_many(ens: EnsembleView) -> dict[str, np.ndarray]:
+        a = ens.col("body_acc")
+        return {"body_acc_rms": rms_rows(a), "body_acc_peak": np.max(np.abs(a), axis=1)}
+
+Metrics without one are computed car by car (:func:`suspension_sim.results.compute_metrics`); an ensemble
+version may raise ``NotImplementedError`` to fall back to that for a particular ensemble.
 """
 from __future__ import annotations
 
@@ -19,18 +37,122 @@ import pandas as pd
 
 @dataclass
 class RunView:
+    """One car's log: ``ts`` (a DataFrame) or ``columns`` (name -> 1-D array, ``t`` first, in the DataFrame's
+    column order; ``ts`` is then built from them on first access)."""
+
     ts: pd.DataFrame  # columns: t, body_z, body_vel, body_acc, [pitch...], travel{s}, ... (see results.py)
     suffixes: list[str]  # corner suffixes ('' for one-corner models)
     static_tire_force: dict[str, float]  # suffix -> N
     stop_gap: dict[str, float] = field(default_factory=dict)  # suffix -> m (bump-stop free travel), if any
     info: dict = field(default_factory=dict)
+    columns: dict | None = field(default=None, repr=False)
+
+    def col(self, name: str) -> np.ndarray:
+        """Channel ``name`` as a 1-D float array (``KeyError`` if the log has none)."""
+        if self.columns is not None:
+            return self.columns[name]
+        return self.ts[name].to_numpy()
+
+    def has(self, name: str) -> bool:
+        return name in self.columns if self.columns is not None else name in self.ts
+
+    @property
+    def n_samples(self) -> int:
+        return len(self.columns["t"]) if self.columns is not None else len(self.ts)
 
     @property
     def dt(self) -> float:
-        t = self.ts["t"].to_numpy()
+        t = self.col("t")
         return float(t[1] - t[0]) if len(t) > 1 else 0.0
+
+
+def _ts_get(self) -> pd.DataFrame:
+    ts = self.__dict__.get("_ts")
+    if ts is None and self.__dict__.get("columns") is not None:
+        from ..results import frame_from_columns
+
+        ts = self.__dict__["_ts"] = frame_from_columns(self.columns)
+    return ts
+
+
+def _ts_set(self, value) -> None:
+    self.__dict__["_ts"] = value
+
+
+# ``ts`` stays a dataclass field (same constructor, repr, fields()) but is read through a property, so a view
+# made from arrays builds its DataFrame only if some metric asks for it
+RunView.ts = property(_ts_get, _ts_set, doc="the log as a DataFrame (built on first access from ``columns``)")
+
+
+@dataclass
+class EnsembleView:
+    """The logs of every car of an ensemble, for ensemble versions of metrics.
+
+    ``col(name)`` -> ``(n_cars, n_log)`` array (C-contiguous rows, one per car); ``t`` the common time axis;
+    ``static_tire_force`` suffix -> ``(n_cars,)``; ``infos`` and ``stop_gaps`` the per-car ``info`` and
+    ``stop_gap`` dicts (what :class:`RunView` carries for one car)."""
+
+    channels: dict  # name -> (n_cars, n_log)
+    t: np.ndarray
+    suffixes: list[str]
+    static_tire_force: dict  # suffix -> (n_cars,) array
+    stop_gaps: list = field(default_factory=list)  # per car: suffix -> m
+    infos: list = field(default_factory=list)  # per car: the Result's info dict
+
+    @property
+    def n_cars(self) -> int:
+        return len(self.infos) if self.infos else next(iter(self.channels.values())).shape[0]
+
+    def col(self, name: str) -> np.ndarray:
+        if name == "t":
+            return np.broadcast_to(self.t, (self.n_cars, len(self.t)))
+        return self.channels[name]
+
+    def has(self, name: str) -> bool:
+        return name == "t" or name in self.channels
+
+    @property
+    def n_samples(self) -> int:
+        return len(self.t)
+
+    @property
+    def dt(self) -> float:
+        t = self.t
+        return float(t[1] - t[0]) if len(t) > 1 else 0.0
+
+
+def ensemble_version(metric):
+    """Decorator: attach ``fn(ens: EnsembleView) -> {key: (n_cars,) array}`` to the per-car ``metric`` as its
+    ensemble version (same keys, same order, bit-identical values)."""
+
+    def deco(fn):
+        metric.ensemble = fn
+        return fn
+
+    return deco
 
 
 def rms(x) -> float:
     x = np.asarray(x, dtype=float)
     return float(np.sqrt(np.mean(x * x))) if x.size else float("nan")
+
+
+def rms_rows(x: np.ndarray) -> np.ndarray:
+    """:func:`rms` of every row of a 2-D array (bit-identical to ``rms`` of each row)."""
+    if x.shape[1] == 0:
+        return np.full(x.shape[0], np.nan)
+    return np.sqrt(np.mean(x * x, axis=1))
+
+
+def peak_rows(x: np.ndarray) -> np.ndarray:
+    """max |x| of every row."""
+    if x.shape[1] == 0:
+        return np.full(x.shape[0], np.nan)
+    return np.max(np.abs(x), axis=1)
+
+
+def fraction_rows(mask: np.ndarray) -> np.ndarray:
+    """Share of True per row (bit-identical to ``_util.fraction`` of each row)."""
+    if mask.shape[1] == 0:
+        return np.full(mask.shape[0], np.nan)
+    return np.mean(mask, axis=1)

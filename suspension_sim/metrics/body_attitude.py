@@ -1,16 +1,26 @@
 """Body pitch and roll: peak and RMS angle, RMS angular acceleration (models that have them)."""
 from ..registry import METRICS
 from ._util import peak
-from .base import RunView, rms
+from .base import EnsembleView, RunView, ensemble_version, peak_rows, rms, rms_rows
 
 
 def _attitude(run: RunView, dof: str) -> dict:
-    ang = run.ts[dof].to_numpy()
+    ang = run.col(dof)
     out = {f"{dof}_peak": peak(ang), f"{dof}_rms": rms(ang)}
-    if f"{dof}_acc" in run.ts:
-        acc = run.ts[f"{dof}_acc"].to_numpy()
+    if run.has(f"{dof}_acc"):
+        acc = run.col(f"{dof}_acc")
         out[f"{dof}_acc_rms"] = rms(acc)
         out[f"{dof}_acc_peak"] = peak(acc)
+    return out
+
+
+def _attitude_many(ens: EnsembleView, dof: str) -> dict:
+    ang = ens.col(dof)
+    out = {f"{dof}_peak": peak_rows(ang), f"{dof}_rms": rms_rows(ang)}
+    if ens.has(f"{dof}_acc"):
+        acc = ens.col(f"{dof}_acc")
+        out[f"{dof}_acc_rms"] = rms_rows(acc)
+        out[f"{dof}_acc_peak"] = peak_rows(acc)
     return out
 
 
@@ -24,3 +34,13 @@ def pitch(run: RunView) -> dict:
 def roll(run: RunView) -> dict:
     """Peak and RMS roll angle (rad, positive right side down) and RMS/peak roll acceleration (rad/s²)."""
     return _attitude(run, "roll")
+
+
+@ensemble_version(pitch)
+def _pitch_many(ens: EnsembleView) -> dict:
+    return _attitude_many(ens, "pitch")
+
+
+@ensemble_version(roll)
+def _roll_many(ens: EnsembleView) -> dict:
+    return _attitude_many(ens, "roll")

@@ -1,8 +1,17 @@
 """RMS and peak suspension travel, and time on the bump stops, per corner."""
+import numpy as np
 
 from ..registry import METRICS
 from ._util import duration, fraction, peak
-from .base import RunView, rms
+from .base import EnsembleView, RunView, ensemble_version, fraction_rows, peak_rows, rms, rms_rows
+
+
+def _sides(info: dict, stop_gap: dict, s: str):
+    sides = (info or {}).get("stop_gap_sides", {}).get(s)
+    gap = stop_gap.get(s)
+    if sides is None and gap is not None:
+        sides = (gap, gap)
+    return sides
 
 
 @METRICS.register("suspension_travel")
@@ -18,15 +27,36 @@ def suspension_travel(run: RunView) -> dict:
     out = {}
     T = duration(run)
     for s in run.suffixes:
-        x = run.ts[f"travel{s}"].to_numpy()
+        x = run.col(f"travel{s}")
         out[f"travel_rms{s}"] = rms(x)
         out[f"travel_peak{s}"] = peak(x)
-        sides = (run.info or {}).get("stop_gap_sides", {}).get(s)
-        gap = run.stop_gap.get(s)
-        if sides is None and gap is not None:
-            sides = (gap, gap)
+        sides = _sides(run.info, run.stop_gap, s)
         if sides is not None:
             f = fraction((x < -sides[0]) | (x > sides[1]))
+            out[f"travel_stop_fraction{s}"] = f
+            out[f"travel_stop_time{s}"] = f * T
+    return out
+
+
+@ensemble_version(suspension_travel)
+def _suspension_travel_many(ens: EnsembleView) -> dict:
+    out = {}
+    T = duration(ens)
+    n = ens.n_cars
+    infos = ens.infos or [{}] * n
+    gaps = ens.stop_gaps or [{}] * n
+    for s in ens.suffixes:
+        x = ens.col(f"travel{s}")
+        out[f"travel_rms{s}"] = rms_rows(x)
+        out[f"travel_peak{s}"] = peak_rows(x)
+        sides = [_sides(infos[i], gaps[i], s) for i in range(n)]
+        have = [sd is not None for sd in sides]
+        if any(have) and not all(have):
+            raise NotImplementedError("stop gaps on some cars only")  # -> car by car
+        if all(have):
+            lo = np.array([float(sd[0]) for sd in sides])[:, None]
+            hi = np.array([float(sd[1]) for sd in sides])[:, None]
+            f = fraction_rows((x < -lo) | (x > hi))
             out[f"travel_stop_fraction{s}"] = f
             out[f"travel_stop_time{s}"] = f * T
     return out

@@ -1,8 +1,9 @@
 """Tire lift-off time per corner."""
+import numpy as np
 
 from ..registry import METRICS
 from ._util import duration, fraction
-from .base import RunView
+from .base import EnsembleView, RunView, ensemble_version, fraction_rows
 
 #: total tire force below this share of the static load counts as lifted off (absorbs round-off when the
 #: tire_liftoff effect clamps the total force to exactly zero)
@@ -21,8 +22,22 @@ def tire_liftoff(run: RunView) -> dict:
     T = duration(run)
     for s in run.suffixes:
         static = float(run.static_tire_force[s])
-        total = static + run.ts[f"tire_force{s}"].to_numpy()
+        total = static + run.col(f"tire_force{s}")
         f = fraction(total <= LIFTOFF_TOL * max(abs(static), 1.0))
+        out[f"tire_liftoff_fraction{s}"] = f
+        out[f"tire_liftoff_time{s}"] = f * T
+    return out
+
+
+@ensemble_version(tire_liftoff)
+def _tire_liftoff_many(ens: EnsembleView) -> dict:
+    out = {}
+    T = duration(ens)
+    for s in ens.suffixes:
+        static = [float(v) for v in ens.static_tire_force[s]]
+        thr = np.array([LIFTOFF_TOL * max(abs(v), 1.0) for v in static])  # python max: same as per car
+        total = np.asarray(static)[:, None] + ens.col(f"tire_force{s}")
+        f = fraction_rows(total <= thr[:, None])
         out[f"tire_liftoff_fraction{s}"] = f
         out[f"tire_liftoff_time{s}"] = f * T
     return out

@@ -1,7 +1,9 @@
 """Dynamic tire load: RMS and peak, absolute and relative to the static load, per corner."""
+import numpy as np
+
 from ..registry import METRICS
 from ._util import peak
-from .base import RunView, rms
+from .base import EnsembleView, RunView, ensemble_version, peak_rows, rms, rms_rows
 
 
 @METRICS.register("tire_load")
@@ -14,10 +16,24 @@ def tire_load(run: RunView) -> dict:
     """
     out = {}
     for s in run.suffixes:
-        f = run.ts[f"tire_force{s}"].to_numpy()
+        f = run.col(f"tire_force{s}")
         static = float(run.static_tire_force[s])
         r = rms(f)
         out[f"tire_force_rms{s}"] = r
         out[f"tire_force_peak{s}"] = peak(f)
         out[f"tire_load_rms_rel{s}"] = r / static if static > 0 else float("nan")
+    return out
+
+
+@ensemble_version(tire_load)
+def _tire_load_many(ens: EnsembleView) -> dict:
+    out = {}
+    for s in ens.suffixes:
+        f = ens.col(f"tire_force{s}")
+        static = np.asarray(ens.static_tire_force[s], dtype=float)
+        r = rms_rows(f)
+        out[f"tire_force_rms{s}"] = r
+        out[f"tire_force_peak{s}"] = peak_rows(f)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out[f"tire_load_rms_rel{s}"] = np.where(static > 0, r / np.where(static > 0, static, 1.0), np.nan)
     return out

@@ -1,7 +1,7 @@
 """RMS and peak wheel (unsprung mass) acceleration per corner."""
 from ..registry import METRICS
 from ._util import peak
-from .base import RunView, rms
+from .base import EnsembleView, RunView, ensemble_version, peak_rows, rms, rms_rows
 
 
 @METRICS.register("wheel_acc")
@@ -9,7 +9,17 @@ def wheel_acc(run: RunView) -> dict:
     """RMS and peak vertical wheel acceleration per corner (m/s²)."""
     out = {}
     for s in run.suffixes:
-        a = run.ts[f"wheel_acc{s}"].to_numpy()
+        a = run.col(f"wheel_acc{s}")
         out[f"wheel_acc_rms{s}"] = rms(a)
         out[f"wheel_acc_peak{s}"] = peak(a)
+    return out
+
+
+@ensemble_version(wheel_acc)
+def _wheel_acc_many(ens: EnsembleView) -> dict:
+    out = {}
+    for s in ens.suffixes:
+        a = ens.col(f"wheel_acc{s}")
+        out[f"wheel_acc_rms{s}"] = rms_rows(a)
+        out[f"wheel_acc_peak{s}"] = peak_rows(a)
     return out
