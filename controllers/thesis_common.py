@@ -7,6 +7,9 @@ leading axis ``n_cars``.
 """
 from __future__ import annotations
 
+import hashlib
+from pathlib import Path
+
 import numba
 import numpy as np
 from scipy.signal import cont2discrete
@@ -272,7 +275,9 @@ class DiscreteMRAC:
         if npar > 128:
             raise ValueError("dm_step sums trace(P) pairwise for at most 128 parameters")
         nh = self.Y.shape[1]
-        so = {nm: lay.st(getattr(self, nm).reshape(n, -1), per_car=True) for nm in ("theta", "P", "Y", "U", "Phi", "err")}
+        pc = self._theta_p_contiguous()
+        so = {nm: lay.st(self._kernel_view(nm, pc).reshape(n, -1), per_car=True)
+              for nm in ("theta", "P", "Y", "U", "Phi", "err")}
         scr = lay.st(np.zeros(3 * npar + 2 * m))
         sc = lay.p(self.sc)
         q = lay.p(self.q)
@@ -283,16 +288,23 @@ class DiscreteMRAC:
         am = [float(a) for a in self.am[:3]]
         lay.set_p(hd, [m, self.D, npar, nh, so["theta"], so["P"], so["Y"], so["U"], so["Phi"], so["err"], scr,
                        sc, q, trQ, float(self.trace_max), lo, hi, *am, float(self.kappa),
-                       float(self.u_max is not None), 0.0 if self.u_max is None else float(self.u_max)])
+                       float(self.u_max is not None), 0.0 if self.u_max is None else float(self.u_max), float(pc)])
         self._kso = so
+        self._kpc = pc
+
+    def _theta_p_contiguous(self) -> bool:
+        return self.theta.shape[2] == 1 or self.theta.strides[1] == self.theta.itemsize
+
+    def _kernel_view(self, nm, pc):
+        a = getattr(self, nm)
+        return a.transpose(0, 2, 1) if nm == "theta" and pc else a
 
     def kernel_sync(self, st: np.ndarray) -> None:
         """Take the estimator state back from a kernel's st rows (as kernel_pack placed it)."""
         n = st.shape[0]
         for nm, off in self._kso.items():
-            a = getattr(self, nm)
-            size = a.size // n
-            setattr(self, nm, np.array(st[:, off:off + size]).reshape(a.shape))
+            v = self._kernel_view(nm, self._kpc)  # written in place: Θ keeps its memory layout (summation order)
+            v[...] = st[:, off:off + v.size // n].reshape(v.shape)
 
 
 # ---------------------------------------------------------------------------------------------------------
@@ -309,6 +321,12 @@ class DiscreteMRAC:
 # test_kernels_thesis.py checks both rules against np.einsum on random data, so a numpy build that sums
 # differently is caught there.
 # ---------------------------------------------------------------------------------------------------------
+# numba's cache of a kernel is keyed by its own file and bytecode only: a kernel in a controller module that
+# inlines these helpers would be reused unchanged after an edit of this file.  The controllers build their
+# kernels as closures over KERNEL_STAMP (a hash of this file), which numba puts into the cache key.
+KERNEL_STAMP = int(hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:12], 16)
+
+
 @numba.njit(cache=True)
 def k_dot(a, ao, b, bo, n):
     """Σ_j a[ao + j]·b[bo + j], j < n, in np.einsum's order for a reduction contiguous in both operands."""
@@ -467,8 +485,17 @@ def k_sum_pw(a, ao, sa, n):
 # DiscreteMRAC header in p (DM_HEADER values at hd): m, D, n parameters, n history; st offsets of Θ (p·m),
 # P (p·p), Y (nh·m), U (nh·m), Φ ((D+1)·p), err (m), scratch (3p + 2m: Pφ, φ_old, φ, Ȳ, u); p offsets of
 # the scaling (p), q (p); trace(Q), trace bound; p offsets of the (β0)⁻¹ bounds lo (m), hi (m); a_m (3);
-# κ; u_max set (0/1), u_max.
-DM_HEADER = 23
+# κ; u_max set (0/1), u_max; Θ contiguous along p (0/1: then np.einsum sums Θᵀφ as k_dot, else in order;
+# np.tile of the transposed nominal Θ leaves a lone car's Θ (1, p, m) in that layout, an ensemble's C-ordered).
+DM_HEADER = 24
+
+
+@numba.njit(cache=True)
+def dm_theta_strides(p, hd):
+    """(row, column) strides of Θ (p × m) in st: Θ[j, c] is st[TH + j·row + c·column]."""
+    if p[hd + 23] != 0.0:
+        return 1, int(p[hd + 2])
+    return int(p[hd]), 1
 
 
 @numba.njit(cache=True)
@@ -489,6 +516,7 @@ def dm_step(p, st, hd, y, yo, ybs, ybo, estimate):
     SC = int(p[hd + 11])
     Q = int(p[hd + 12])
     PPHI, PHO, PHI, YB, UN = S, S + npar, S + 2 * npar, S + 3 * npar, S + 3 * npar + m
+    tj, tc = dm_theta_strides(p, hd)
     bi = npar - m
     # Y ← roll(Y, 1); Y[0] = y;  Ȳ[k] = a_m(q⁻¹) Y[k]
     for k in range(nh - 1, 0, -1):
@@ -513,13 +541,15 @@ def dm_step(p, st, hd, y, yo, ybs, ybo, estimate):
             for c in range(m):
                 if m == 1:
                     pred = k_dot(st, TH, st, PHO, npar)
+                elif tj == 1:
+                    pred = k_dot(st, TH + c * tc, st, PHO, npar)
                 else:
-                    pred = k_dot_seq(st, TH + c, m, st, PHO, 1, npar)
+                    pred = k_dot_seq(st, TH + c * tc, tj, st, PHO, 1, npar)
                 st[ER + c] = st[U + (D - 1) * m + c] - pred
             for j in range(npar):
                 g = st[PPHI + j] / denom
                 for c in range(m):
-                    st[TH + j * m + c] += g * st[ER + c]
+                    st[TH + j * tj + c * tc] += g * st[ER + c]
             for i in range(npar):
                 for j in range(npar):
                     st[PP + i * npar + j] -= st[PPHI + i] * st[PPHI + j] / denom
@@ -534,7 +564,7 @@ def dm_step(p, st, hd, y, yo, ybs, ybo, estimate):
             lo = int(p[hd + 15])
             hi = int(p[hd + 16])
             for c in range(m):
-                kk = TH + (bi + c) * m + c
+                kk = TH + (bi + c) * tj + c * tc
                 st[kk] = min(max(st[kk], p[lo + c]), p[hi + c])
     # φ[k] = [−Y[k], −Y[k−1], −U[k−1], …, −U[k−D], −1, Ȳ*[k+D]] · scaling
     j = 0
@@ -555,8 +585,10 @@ def dm_step(p, st, hd, y, yo, ybs, ybo, estimate):
     for c in range(m):
         if m == 1:
             uc = k_dot(st, TH, st, PHI, npar)
+        elif tj == 1:
+            uc = k_dot(st, TH + c * tc, st, PHI, npar)
         else:
-            uc = k_dot_seq(st, TH + c, m, st, PHI, 1, npar)
+            uc = k_dot_seq(st, TH + c * tc, tj, st, PHI, 1, npar)
         if kappa < 1.0:
             uc = kappa * uc + (1.0 - kappa) * st[U + c]
         if p[hd + 21] != 0.0:

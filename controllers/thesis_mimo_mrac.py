@@ -43,6 +43,7 @@ mapped to actuator forces, N).
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 from pydantic import Field
 
@@ -50,7 +51,9 @@ from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
-from .thesis_common import DiscreteMRAC, FilterBank, _f, am_poly, darma, predictor, theta_from_predictor
+from .thesis_common import (DM_HEADER, FB_HEADER, KERNEL_STAMP, DiscreteMRAC, FilterBank, KernelLayout, _f, am_poly,
+                            darma, dm_step, dm_theta_strides, fb_update, fb_y, k_dot, predictor,
+                            theta_from_predictor)
 
 
 class MIMOParams(Params):
@@ -76,6 +79,71 @@ class MIMOParams(Params):
     kappa: float = Field(0.2, gt=0, le=1, description="control-increment weighting (1 = thesis)")
     beta_inv_range: tuple[float, float] = Field((0.2, 5.0), description="allowed (β0)⁻¹ diagonal / nominal")
     road_feedforward: bool = Field(True, description="U_T = u + K0·w + C0·ẇ (see module doc)")
+
+
+# ---- compiled kernel (suspension_sim.compiled): MIMOMRAC.step for one car ----------------------------------
+# p: the reference filter's header, the DiscreteMRAC header, the scalars _PS.. (sensor offsets of body_pos,
+# road, road_vel; D; n targets; st offset of the targets; a_m (3); K0, C0, feed-forward on), row 4 of the
+# reference A (8) and B (4) matrices, then matrices.  st: the signals ref_z, ref_pitch, ref_acc, err (2),
+# bias (2), the scratch [w, ẇ] (4), Y (2), Ȳ* (2), r (8), the signal Θ (unscaled, p·2), the targets
+# (n targets × 2), then the estimator's and filter's states.
+_HREF, _HDM = 0, FB_HEADER
+_PS = FB_HEADER + DM_HEADER
+_PA4, _PB4 = _PS + 12, _PS + 20
+_ST_RZ, _ST_RP, _ST_RA, _ST_E, _ST_BIAS, _ST_WIN, _ST_Y, _ST_YB, _ST_R, _ST_TH = 0, 1, 2, 3, 5, 7, 11, 13, 15, 23
+
+
+def _build_kernel(stamp):
+    @numba.njit(cache=True)
+    def _kernel(t, y, p, st, u):
+        if stamp < 0:  # never true: ties numba's cache key to thesis_common (see KERNEL_STAMP)
+            return
+        ib = int(p[_PS])
+        iw = int(p[_PS + 1])
+        iwd = int(p[_PS + 2])
+        D = int(p[_PS + 3])
+        nt = int(p[_PS + 4])
+        TG = int(p[_PS + 5])
+        for c in range(2):
+            st[_ST_Y + c] = y[ib + c]
+            st[_ST_WIN + c] = y[iw + c]
+            st[_ST_WIN + 2 + c] = y[iwd + c]
+        for o in range(8):
+            st[_ST_R + o] = fb_y(p, st, _HREF, 0, o)
+        fb_update(p, st, _HREF, 0, st, _ST_WIN)
+        for k in range(nt - 1, 0, -1):
+            for c in range(2):
+                st[TG + 2 * k + c] = st[TG + 2 * (k - 1) + c]
+        for c in range(2):
+            st[TG + c] = fb_y(p, st, _HREF, 0, c)
+        for c in range(2):
+            st[_ST_YB + c] = p[_PS + 6] * st[TG + c] + p[_PS + 7] * st[TG + 2 + c] + p[_PS + 8] * st[TG + 4 + c]
+        dm_step(p, st, _HDM, st, _ST_Y, st, _ST_YB, True)
+        U = int(p[_HDM + 7])
+        for c in range(2):
+            ff = 0.0
+            if p[_PS + 11] != 0.0:
+                ff = p[_PS + 9] * st[_ST_WIN + c] + p[_PS + 10] * st[_ST_WIN + 2 + c]
+            u[c] = st[U + c] - ff
+        # signals
+        npar = int(p[_HDM + 2])
+        TH = int(p[_HDM + 4])
+        SC = int(p[_HDM + 11])
+        tj, tc = dm_theta_strides(p, _HDM)
+        for j in range(npar):
+            for c in range(2):
+                st[_ST_TH + 2 * j + c] = st[TH + j * tj + c * tc] * p[SC + j]
+        for c in range(2):
+            st[_ST_BIAS + c] = -st[_ST_TH + 2 * (npar - 3) + c]
+            st[_ST_E + c] = st[_ST_Y + c] - st[TG + 2 * D + c]
+        st[_ST_RZ] = st[_ST_R]
+        st[_ST_RP] = st[_ST_R + 1]
+        st[_ST_RA] = k_dot(p, _PA4, st, _ST_R, 8) + k_dot(p, _PB4, st, _ST_WIN, 4)
+
+    return _kernel
+
+
+_kernel = _build_kernel(KERNEL_STAMP)
 
 
 @CONTROLLERS.register("thesis_mimo_mrac")
@@ -156,3 +224,47 @@ class MIMOMRAC(Controller):
 
     def signals(self):
         return self._sig
+
+    # ---- compiled kernel (see _kernel) ----
+    kernel = staticmethod(_kernel)
+
+    def kernel_data(self):
+        n, p, core = self.ctx.n_cars, self.p, self.core
+        lay = KernelLayout(n)
+        lay.p(np.zeros(_PS))  # headers, filled by kernel_pack
+        npar = core.p
+        nt = self.targets.shape[1]
+        sl = [float(self.ctx.sensor_slice(nm)[0]) for nm in ("body_pos", "road", "road_vel")]
+        lay.p(sl + [self.D, nt, _ST_TH + 2 * npar, *[float(a) for a in self.am[:3]], self.K0, self.C0,
+                    float(bool(p.road_feedforward))])
+        assert lay.p(self.Ar[4]) == _PA4 and lay.p(self.Br[4]) == _PB4
+        sig = self._sig
+
+        def col(k, w):
+            if k not in sig:
+                return np.zeros((n, w))
+            return np.asarray(sig[k], dtype=float).reshape(n, w)
+
+        lay.st(np.concatenate([col("ref_z", 1), col("ref_pitch", 1), col("ref_acc", 1), col("err", 2),
+                               col("bias", 2)], axis=1), per_car=True)
+        assert lay.st(np.zeros(_ST_TH - _ST_WIN)) == _ST_WIN
+        assert lay.st(core.theta_unscaled.reshape(n, -1), per_car=True) == _ST_TH
+        lay.st(self.targets.reshape(n, -1), per_car=True)
+        core.kernel_pack(lay, _HDM)
+        self._kso = self.ref.kernel_pack(lay, _HREF)
+        return lay.arrays()
+
+    def kernel_signals(self):
+        npar = self.core.p
+        return {"ref_z": (_ST_RZ, _ST_RZ + 1), "ref_pitch": (_ST_RP, _ST_RP + 1), "ref_acc": (_ST_RA, _ST_RA + 1),
+                "err": (_ST_E, _ST_E + 2), "bias": (_ST_BIAS, _ST_BIAS + 2), "theta": (_ST_TH, _ST_TH + 2 * npar)}
+
+    def kernel_sync(self, st):
+        st = np.asarray(st, dtype=float)
+        n, npar, nt = st.shape[0], self.core.p, self.targets.shape[1]
+        self.core.kernel_sync(st)
+        self.ref.kernel_sync(st, self._kso)
+        a = _ST_TH + 2 * npar
+        self.targets = np.array(st[:, a:a + 2 * nt]).reshape(n, nt, 2)
+        self._sig = {k: np.array(st[:, a]) if b == a + 1 else np.array(st[:, a:b])
+                     for k, (a, b) in self.kernel_signals().items()}

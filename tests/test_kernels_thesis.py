@@ -90,6 +90,12 @@ def test_einsum_summation_order_is_the_one_the_kernels_use():
             ref = np.einsum("npm,np->nm", th, a[:2])
             got = [[k_dot_seq(th[i].ravel(), c, m, a[i], 0, 1, K) for c in range(m)] for i in range(2)]
             assert np.array_equal(ref, got), K
+    # a Θ laid out along p (a lone car's, see dm_theta_strides) is summed as k_dot
+    th = np.tile(rng.standard_normal((2, 9)).T[None], (1, 1, 1))
+    assert th.strides[1] == 8
+    ph = rng.standard_normal((1, 9)) * 10.0 ** rng.uniform(-6, 6, (1, 9))
+    ref = np.einsum("npm,np->nm", th, ph)
+    assert np.array_equal(ref[0], [k_dot(np.ascontiguousarray(th[0, :, c]), 0, ph[0], 0, 9) for c in range(2)])
     # the plain sequential sum differs from einsum's for some K >= 3: the order matters
     a = rng.standard_normal((200, 6)) * 10.0 ** rng.uniform(-6, 6, (200, 6))
     seq = [k_dot_seq(r, 0, 1, np.ones(6), 0, 1, 6) for r in a]
@@ -150,14 +156,16 @@ def _core_design(m, D, kappa, u_max, beta_inv_range, trace_max, n):
                         beta_inv_range=beta_inv_range, u_max=u_max, kappa=kappa, p0_bias=0.1, q_bias=0.01)
 
 
-@pytest.mark.parametrize("m, D, kappa, u_max", [(1, 6, 0.1, 300.0), (2, 2, 0.2, None), (2, 1, 1.0, 50.0)])
-def test_discrete_mrac_core_kernel_all_branches(m, D, kappa, u_max):
-    """dm_step against DiscreteMRAC.step on synthetic readings of 3 cars (different scales), bit for bit,
+@pytest.mark.parametrize("m, D, kappa, u_max, n", [(1, 6, 0.1, 300.0, 3), (2, 2, 0.2, None, 3), (2, 1, 1.0, 50.0, 3),
+                                                  (2, 2, 0.2, 80.0, 1)])
+def test_discrete_mrac_core_kernel_all_branches(m, D, kappa, u_max, n):
+    """dm_step against DiscreteMRAC.step on synthetic readings of n cars (different scales), bit for bit,
     with the covariance addition first refused by the trace bound and later applied, the (β0)⁻¹
-    projection and (where set) the force limit engaged."""
+    projection and (where set) the force limit engaged.  A lone car's Θ (1, p, m) is laid out along p
+    (np.tile of the transposed nominal), which changes np.einsum's summation order for m = 2: the n = 1
+    case checks that the kernel follows it."""
     from controllers.thesis_common import DM_HEADER, KernelLayout, dm_step
 
-    n = 3
     core = _core_design(m, D, kappa, u_max, (0.9, 1.1), 0.0, n)
     core.trace_max = float(np.trace(core.P[0])) * 0.5  # the first updates may not add q·I
     lay = KernelLayout(n)
@@ -166,7 +174,7 @@ def test_discrete_mrac_core_kernel_all_branches(m, D, kappa, u_max):
     p, st = lay.arrays()
     U = int(p[0, 7])
     rng = np.random.default_rng(5)
-    scale = np.array([0.01, 0.05, 0.2])[:, None]
+    scale = np.array([0.01, 0.05, 0.2])[:n, None]
     yv = np.zeros((n, m))
     seen = {"refused": False, "added": False, "proj": False, "umax": u_max is None}
     tr_prev = np.trace(core.P, axis1=1, axis2=2)
@@ -215,6 +223,37 @@ def test_mrac_discrete_kernel_ensemble(request):
     assert check_controller(sim) == 0.0
     py, kn = replay_and_sync(Simulation(ensemble(request.config.rootpath, "thesis_ch4_dirt", 0.5, "sprung_mass",
                                                  [250, 350, 450], edit)))
+    for nm in ("theta", "P", "Y", "U", "Phi", "err"):
+        np.testing.assert_array_equal(getattr(kn.core, nm), getattr(py.core, nm), err_msg=nm)
+    np.testing.assert_array_equal(kn.targets, py.targets)
+    np.testing.assert_array_equal(kn.ref.x, py.ref.x)
+    assert_same_signals(py, kn)
+
+
+# --- Ch. 7: MIMO MRAC of the half car ---------------------------------------------------------------------
+
+def _ch7(raw):
+    """Braking early and a sinusoidal road (the scenario's road is flat: the reference would stay at 0)."""
+    raw["vehicle"]["maneuver"]["params"].update(start=0.2, phases=[[0.4, 4.0], [0.4, -7.0]])
+    raw["road"] = {"type": "multi_sine", "params": {"amplitudes": [0.02, 0.01], "frequencies": [1.0, 2.5]},
+                   "speed": 10}
+
+
+def test_mimo_mrac_kernel_single_car(request):
+    sim = Simulation([scenario(request.config.rootpath, "thesis_ch7_braking", 1.2, _ch7)])
+    assert check_controller(sim) == 0.0
+
+
+def test_mimo_mrac_kernel_ensemble(request):
+    """Three half cars (sprung mass 450/500/600 kg), one sample of loop delay (D = 2)."""
+    def edit(raw):
+        _ch7(raw)
+        raw["sensors"] = [{"type": s["type"], "delay": 0.01} for s in raw["sensors"]]
+        raw["controller"]["params"]["delay_steps"] = 1
+
+    scs = ensemble(request.config.rootpath, "thesis_ch7_braking", 1.2, "sprung_mass", [450, 500, 600], edit)
+    assert check_controller(Simulation(scs)) == 0.0
+    py, kn = replay_and_sync(Simulation(scs))
     for nm in ("theta", "P", "Y", "U", "Phi", "err"):
         np.testing.assert_array_equal(getattr(kn.core, nm), getattr(py.core, nm), err_msg=nm)
     np.testing.assert_array_equal(kn.targets, py.targets)
