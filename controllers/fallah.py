@@ -67,6 +67,7 @@ from __future__ import annotations
 
 from typing import Optional
 
+import numba
 import numpy as np
 from pydantic import Field
 
@@ -213,11 +214,92 @@ def corner_quarter_cars(ctx, p) -> dict[str, np.ndarray]:
     return out
 
 
+# compiled kernel --------------------------------------------------------------------------------------------
+(_P_DT, _P_NW, _P_PMR, _P_A, _P_C, _P_FMAX, _P_OACC, _P_OPITCH, _P_OROLL, _P_OTRAV) = range(10)
+_NP = 10  # then per corner: K (4), corner x, corner y
+(_S_K, _S_VINT, _S_APREV, _S_SUMV) = range(4)
+_NS = 4  # then blocks of n_corners: hist (6), z_int, sum_z, zs, vs, dv, s, F; then buf_v (nw), buf_z (nw·nc)
+
+
+@numba.njit(cache=True)
+def _kernel(t, y, p, st, u):
+    """Compiled ``Fallah.step`` for one car.  The same operations as the numpy law, except the order of the
+    additions in the differentiator (numpy: tensordot, i.e. BLAS) and in the switching function (einsum)."""
+    nc = u.shape[0]
+    dt = p[_P_DT]
+    nw = int(p[_P_NW])
+    k = int(st[_S_K])
+    o_hist = _NS
+    o_zint = o_hist + 6 * nc
+    o_sumz = o_zint + nc
+    o_zs = o_sumz + nc
+    o_vs = o_zs + nc
+    o_dv = o_vs + nc
+    o_s = o_dv + nc
+    o_F = o_s + nc
+    o_bufv = o_F + nc
+    o_bufz = o_bufv + nw
+    acc = y[int(p[_P_OACC])]
+    pitch_rate = y[int(p[_P_OPITCH])] if p[_P_OPITCH] >= 0 else 0.0
+    roll_rate = y[int(p[_P_OROLL])] if p[_P_OROLL] >= 0 else 0.0
+    # LVDT history and the hybrid differentiator (19)
+    otr = int(p[_P_OTRAV])
+    for c in range(nc):
+        travel = y[otr + c]
+        for i in range(5, 0, -1):
+            st[o_hist + i * nc + c] = st[o_hist + (i - 1) * nc + c]
+        st[o_hist + c] = travel
+        if k == 0:
+            for i in range(1, 6):
+                st[o_hist + i * nc + c] = travel
+        acc_dv = 0.0
+        for i in range(6):
+            acc_dv += HYBRID_COEFS[i] * st[o_hist + i * nc + c]
+        st[o_dv + c] = acc_dv / dt
+    # c.g. heave velocity with the moving-mean removal
+    if k > 0:
+        st[_S_VINT] = st[_S_VINT] + 0.5 * (acc + st[_S_APREV]) * dt
+    st[_S_APREV] = acc
+    v_int = st[_S_VINT]
+    j = k % nw
+    cnt = min(k + 1, nw)
+    st[_S_SUMV] += v_int - st[o_bufv + j]
+    st[o_bufv + j] = v_int
+    v_cg = v_int - st[_S_SUMV] / cnt
+    pmr = p[_P_PMR] != 0.0
+    fmax, a, cc = p[_P_FMAX], p[_P_A], p[_P_C]
+    for c in range(nc):
+        pc = _NP + 6 * c
+        vs = v_cg + p[pc + 5] * roll_rate - p[pc + 4] * pitch_rate
+        z = st[o_zint + c]
+        if k > 0:
+            z = z + 0.5 * (vs + st[o_vs + c]) * dt
+            st[o_zint + c] = z
+        st[o_vs + c] = vs
+        if pmr:
+            st[o_sumz + c] += z - st[o_bufz + j * nc + c]
+            st[o_bufz + j * nc + c] = z
+            zs = z - st[o_sumz + c] / cnt
+        else:
+            zs = z
+        st[o_zs + c] = zs
+        sw = p[pc] * zs + p[pc + 1] * vs + p[pc + 2] * y[otr + c] + p[pc + 3] * st[o_dv + c]
+        st[o_s + c] = sw
+        arg = a * sw + cc
+        arg = min(max(arg, -500.0), 500.0)
+        sig = 2.0 / (1.0 + np.exp(-arg)) - 1.0
+        F = -fmax * sig
+        st[o_F + c] = F
+        u[c] = F
+    st[_S_K] = k + 1
+
+
 @CONTROLLERS.register("fallah")
 class Fallah(Controller):
     """Fallah–Sorniotti–Gruber robust bang-bang (affine Lyapunov LMIs, sigmoid) with IMU + LVDT estimation."""
 
     Params = FallahParams
+    kernel = staticmethod(_kernel)
 
     @classmethod
     def required_sensors(cls, raw):
@@ -349,3 +431,75 @@ class Fallah(Controller):
 
     def signals(self):
         return {"zs_hat": self.zs, "vs_hat": self.vs, "dv_hat": self.dv, "s": self.s}
+
+    # -- compiled kernel ------------------------------------------------------------------------------------
+    def _kernel_layout(self):
+        nc, o, k = self.ctx.n_corners, {}, _NS
+        for name, w in (("hist", 6 * nc), ("z_int", nc), ("sum_z", nc), ("zs", nc), ("vs", nc), ("dv", nc),
+                        ("s", nc), ("F", nc), ("buf_v", self.nw), ("buf_z", self.nw * nc)):
+            o[name] = k
+            k += w
+        o["_next"] = k
+        return o
+
+    def kernel_data(self):
+        n, nc, p = self.ctx.n_cars, self.ctx.n_corners, self.p
+
+        def col(v):
+            return np.broadcast_to(np.asarray(v, dtype=float).reshape(-1), (n,))
+
+        def start(name):
+            try:
+                return self.ctx.sensor_slice(name)[0]
+            except KeyError:
+                raise NotImplementedError(f"fallah kernel needs the declared sensor {name!r}") from None
+
+        P = np.zeros((n, _NP + 6 * nc))
+        P[:, _P_DT], P[:, _P_NW] = self.dt, self.nw
+        P[:, _P_PMR] = float(bool(p.position_mean_removal))  # one flag for the ensemble, as in estimate()
+        P[:, _P_A], P[:, _P_C], P[:, _P_FMAX] = col(p.a), col(p.c), col(p.f_max)
+        P[:, _P_OACC] = start(p.acc_sensor)
+        labels = self.ctx.sensors.get(p.gyro_sensor, []) if p.gyro_sensor else []
+        g0 = start(p.gyro_sensor) if p.gyro_sensor else 0
+        P[:, _P_OPITCH] = g0 + labels.index("pitch") if "pitch" in labels else -1.0
+        P[:, _P_OROLL] = g0 + labels.index("roll") if "roll" in labels else -1.0
+        P[:, _P_OTRAV] = start(p.travel_sensor)
+        pc = np.concatenate([self.K, np.broadcast_to(self.cx[..., None], (n, nc, 1)),
+                             np.broadcast_to(self.cy[..., None], (n, nc, 1))], axis=-1)
+        P[:, _NP:] = pc.reshape(n, -1)
+        o = self._kernel_layout()
+        S = np.zeros((n, o["_next"]))
+        S[:, _S_K] = self.k
+        S[:, _S_VINT] = self.v_int[:, 0]
+        if self.a_prev is not None:
+            S[:, _S_APREV] = self.a_prev[:, 0]
+        S[:, _S_SUMV] = self.sum_v[:, 0]
+        S[:, o["hist"]:o["hist"] + 6 * nc] = self.hist.transpose(1, 0, 2).reshape(n, -1)
+        for name, v in (("z_int", self.z_int), ("sum_z", self.sum_z), ("zs", self.zs), ("vs", self.vs),
+                        ("dv", self.dv), ("s", self.s), ("F", self.F)):
+            S[:, o[name]:o[name] + nc] = v
+        S[:, o["buf_v"]:o["buf_v"] + self.nw] = self.buf_v[:, :, 0].T
+        S[:, o["buf_z"]:o["buf_z"] + self.nw * nc] = self.buf_z.transpose(1, 0, 2).reshape(n, -1)
+        return np.ascontiguousarray(P), S
+
+    def kernel_signals(self):
+        o, nc = self._kernel_layout(), self.ctx.n_corners
+        return {"zs_hat": (o["zs"], o["zs"] + nc), "vs_hat": (o["vs"], o["vs"] + nc),
+                "dv_hat": (o["dv"], o["dv"] + nc), "s": (o["s"], o["s"] + nc)}
+
+    def kernel_sync(self, st):
+        n, nc, nw = self.ctx.n_cars, self.ctx.n_corners, self.nw
+        o = self._kernel_layout()
+
+        def blk(name, w=nc):
+            return np.array(st[:, o[name]:o[name] + w])
+
+        self.k = int(st[0, _S_K])
+        self.v_int = np.array(st[:, _S_VINT:_S_VINT + 1])
+        self.a_prev = np.array(st[:, _S_APREV:_S_APREV + 1]) if self.k > 0 else None
+        self.sum_v = np.array(st[:, _S_SUMV:_S_SUMV + 1])
+        self.hist = blk("hist", 6 * nc).reshape(n, 6, nc).transpose(1, 0, 2).copy()
+        self.z_int, self.sum_z, self.zs, self.vs = blk("z_int"), blk("sum_z"), blk("zs"), blk("vs")
+        self.dv, self.s, self.F = blk("dv"), blk("s"), blk("F")
+        self.buf_v = blk("buf_v", nw).T.reshape(nw, n, 1).copy()
+        self.buf_z = blk("buf_z", nw * nc).reshape(n, nw, nc).transpose(1, 0, 2).copy()

@@ -40,6 +40,7 @@ from __future__ import annotations
 
 from typing import Literal, Optional
 
+import numba
 import numpy as np
 from pydantic import Field
 
@@ -96,11 +97,146 @@ def basis(u: np.ndarray, n_rules: int, umax: float, membership: str, alpha_two: 
     return mu / np.maximum(s, 1e-300)
 
 
+# compiled kernel --------------------------------------------------------------------------------------------
+(_P_KREF, _P_BREF, _P_OTR, _P_ORATE, _P_OVEL, _P_OF, _P_NK, _P_NB, _P_MEMBK, _P_MEMBB, _P_AK, _P_AB, _P_HK,
+ _P_HB) = range(14)
+_NP = 14  # then the rule centres m_k (nk), m_b (nb), then per corner λ_k/M, λ_b/M, e^(−α·dt), M
+# membership codes: 0 the two-rule triangle pair of Eq. (33), 1 triangles on a grid, 2 gaussians
+
+
+@numba.njit(cache=True)
+def _pairwise_sum(a, lo, n):
+    """numpy's pairwise summation of a[lo:lo+n] (np.sum along a contiguous axis) for n <= 128."""
+    if n < 8:
+        res = -0.0
+        for i in range(n):
+            res += a[lo + i]
+        return res
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    i = 8
+    while i < n - (n % 8):
+        r0 += a[lo + i]
+        r1 += a[lo + i + 1]
+        r2 += a[lo + i + 2]
+        r3 += a[lo + i + 3]
+        r4 += a[lo + i + 4]
+        r5 += a[lo + i + 5]
+        r6 += a[lo + i + 6]
+        r7 += a[lo + i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[lo + i]
+        i += 1
+    return res
+
+
+@numba.njit(cache=True)
+def _basis(u, nr, memb, alpha_two, m, lo_m, h, psi, lo):
+    """``basis`` for a scalar u into psi[lo:lo+nr] (psi[lo+nr:lo+2nr] is scratch); m[lo_m:lo_m+nr] the rule
+    centres, h the half-width (triangles) or σ (gaussians)."""
+    if memb == 0:
+        a = alpha_two * u + 1.0
+        b = 1.0 - alpha_two * u
+        mu = a if (a <= b or a != a) else b  # np.minimum
+        mu = mu if (mu >= 0.0 or mu != mu) else 0.0  # np.maximum
+        psi[lo] = mu
+        psi[lo + 1] = 1.0 - mu
+        return
+    w = lo + nr
+    for i in range(nr):
+        d = u - m[lo_m + i]
+        if memb == 2:
+            q = d / h
+            psi[w + i] = np.exp(-0.5 * (q * q))
+        else:
+            x = 1.0 - np.abs(d) / h
+            psi[w + i] = x if (x >= 0.0 or x != x) else 0.0
+    if memb == 1:
+        if u <= m[lo_m]:
+            psi[w] = 1.0
+        if u >= m[lo_m + nr - 1]:
+            psi[w + nr - 1] = 1.0
+    s = _pairwise_sum(psi, w, nr)
+    s = s if (s >= 1e-300 or s != s) else 1e-300
+    for i in range(nr):
+        psi[lo + i] = psi[w + i] / s
+
+
+@numba.njit(cache=True)
+def _kernel(t, y, p, st, u):
+    """Compiled ``ToscanoDumas.step`` for one car (same operations in the same order as the numpy law)."""
+    nc = u.shape[0]
+    nk, nb = int(p[_P_NK]), int(p[_P_NB])
+    dt = st[1]
+    first = st[0] == 0.0
+    # state layout (see kernel_data): [started, dt] then per corner blocks
+    o_vhat = 2
+    o_dx0 = o_vhat + nc
+    o_dv0 = o_dx0 + nc
+    o_v0 = o_dv0 + nc
+    o_F = o_v0 + nc
+    o_fk = o_F + nc
+    o_fb = o_fk + nc
+    o_verr = o_fb + nc
+    o_bk = o_verr + nc
+    o_bb = o_bk + nc * nk
+    o_pk0 = o_bb + nc * nb
+    o_pb0 = o_pk0 + 2 * nc * nk
+    o_tmp = o_pb0 + 2 * nc * nb  # products for the sums: max(nk, nb)
+    m0 = _NP
+    pc = _NP + nk + nb  # per corner: gk, gb, e, M
+    for c in range(nc):
+        dx = -y[int(p[_P_OTR]) + c]
+        dv = -y[int(p[_P_ORATE]) + c]
+        v = y[int(p[_P_OVEL]) + c]
+        F_prev = y[int(p[_P_OF]) + c] if p[_P_OF] >= 0 else st[o_F + c]
+        gk, gb, e, M = p[pc + 4 * c], p[pc + 4 * c + 1], p[pc + 4 * c + 2], p[pc + 4 * c + 3]
+        if first:
+            st[o_vhat + c] = v
+        else:
+            dx0, dv0 = st[o_dx0 + c], st[o_dv0 + c]
+            for i in range(nk):
+                st[o_tmp + i] = st[o_bk + c * nk + i] * st[o_pk0 + 2 * c * nk + i]
+            fk0 = _pairwise_sum(st, o_tmp, nk)
+            for i in range(nb):
+                st[o_tmp + i] = st[o_bb + c * nb + i] * st[o_pb0 + 2 * c * nb + i]
+            fb0 = _pairwise_sum(st, o_tmp, nb)
+            drive = (fk0 * dx0 + fb0 * dv0 + F_prev) / M
+            v_hat = e * st[o_vhat + c] + (1 - e) * st[o_v0 + c] + drive * dt
+            st[o_vhat + c] = v_hat
+            v_err = v - v_hat
+            st[o_verr + c] = v_err
+            for i in range(nk):
+                st[o_bk + c * nk + i] = st[o_bk + c * nk + i] + dt * gk * st[o_pk0 + 2 * c * nk + i] * (dx0 * v_err)
+            for i in range(nb):
+                st[o_bb + c * nb + i] = st[o_bb + c * nb + i] + dt * gb * st[o_pb0 + 2 * c * nb + i] * (dv0 * v_err)
+        _basis(dx, nk, int(p[_P_MEMBK]), p[_P_AK], p, m0, p[_P_HK], st, o_pk0 + 2 * c * nk)
+        _basis(dv, nb, int(p[_P_MEMBB]), p[_P_AB], p, m0 + nk, p[_P_HB], st, o_pb0 + 2 * c * nb)
+        for i in range(nk):
+            st[o_tmp + i] = st[o_bk + c * nk + i] * st[o_pk0 + 2 * c * nk + i]
+        fk = _pairwise_sum(st, o_tmp, nk)
+        for i in range(nb):
+            st[o_tmp + i] = st[o_bb + c * nb + i] * st[o_pb0 + 2 * c * nb + i]
+        fb = _pairwise_sum(st, o_tmp, nb)
+        F = (p[_P_KREF] - fk) * dx + (p[_P_BREF] - fb) * dv
+        st[o_fk + c] = fk
+        st[o_fb + c] = fb
+        st[o_F + c] = F
+        st[o_dx0 + c] = dx
+        st[o_dv0 + c] = dv
+        st[o_v0 + c] = v
+        u[c] = F
+    st[0] = 1.0
+
+
 @CONTROLLERS.register("toscano_dumas")
 class ToscanoDumas(Controller):
     """Toscano–Dumas fuzzy adaptive compensation: the suspension follows a reference stiffness and damping."""
 
     Params = ToscanoDumasParams
+    kernel = staticmethod(_kernel)
 
     @classmethod
     def required_sensors(cls, raw):
@@ -116,7 +252,10 @@ class ToscanoDumas(Controller):
         self.nk, self.nb = int(np.max(p.n_rules_k)), int(np.max(p.n_rules_b))
         self.beta_k = np.broadcast_to(np.asarray(p.beta_k0, float).reshape(-1, 1, 1), (n, nc, self.nk)).copy()
         self.beta_b = np.broadcast_to(np.asarray(p.beta_b0, float).reshape(-1, 1, 1), (n, nc, self.nb)).copy()
-        if p.body_mass is not None:
+        if isinstance(p.body_mass, list):  # given for some cars of the ensemble only
+            static = np.asarray(self.ctx.static_suspension_force, float) / G
+            self.M = np.stack([static[i] if m is None else np.full(nc, float(m)) for i, m in enumerate(p.body_mass)])
+        elif p.body_mass is not None:
             self.M = np.broadcast_to(np.asarray(p.body_mass, float).reshape(-1, 1), (n, nc)).copy()
         else:
             self.M = np.asarray(self.ctx.static_suspension_force, float) / G
@@ -172,3 +311,96 @@ class ToscanoDumas(Controller):
             out["beta_k"] = self.beta_k[:, 0, :]
             out["beta_b"] = self.beta_b[:, 0, :]
         return out
+
+    # compiled kernel ------------------------------------------------------------------------------------
+    def _kernel_layout(self):
+        """Offsets of the kernel's state blocks (after [started, control_dt]); must match _kernel."""
+        nc, nk, nb = self.ctx.n_corners, self.nk, self.nb
+        o, k = {}, 2
+        for name, w in (("vhat", nc), ("dx0", nc), ("dv0", nc), ("v0", nc), ("F", nc), ("fk", nc), ("fb", nc),
+                        ("verr", nc), ("bk", nc * nk), ("bb", nc * nb), ("pk0", 2 * nc * nk), ("pb0", 2 * nc * nb),
+                        ("tmp", max(nk, nb))):
+            o[name] = k
+            k += w
+        o["_next"] = k
+        return o
+
+    def kernel_data(self):
+        n, nc, p = self.ctx.n_cars, self.ctx.n_corners, self.p
+        nk, nb = self.nk, self.nb
+        if max(nk, nb) > 128:
+            raise NotImplementedError("toscano_dumas kernel: more than 128 rules")
+
+        def col(v):
+            return np.broadcast_to(np.asarray(v, dtype=float).reshape(-1), (n,))
+
+        def offset(name):
+            try:
+                return float(self.ctx.sensor_slice(name)[0])
+            except KeyError:
+                raise NotImplementedError(f"toscano_dumas kernel needs the declared sensor {name!r}") from None
+
+        P = np.zeros((n, _NP + nk + nb + 4 * nc))
+        P[:, _P_KREF], P[:, _P_BREF] = col(p.k_ref), col(p.b_ref)
+        P[:, _P_OTR], P[:, _P_ORATE], P[:, _P_OVEL] = (offset(p.travel_sensor), offset(p.rate_sensor),
+                                                       offset(p.velocity_sensor))
+        P[:, _P_OF] = offset(p.force_sensor) if p.force_sensor else -1.0
+        P[:, _P_NK], P[:, _P_NB] = nk, nb
+        for j, nr in ((_P_MEMBK, nk), (_P_MEMBB, nb)):  # as in basis()
+            P[:, j] = 2 if self.memb == "gaussian" else (0 if nr == 2 else 1)
+        ukmax, ubmax = float(np.max(p.range_dx)), float(np.max(p.range_dv))
+        P[:, _P_AK], P[:, _P_AB] = ALPHA_K * 0.2 / ukmax, ALPHA_B * 20.0 / ubmax  # as in _psi
+        for j, (nr, umax) in enumerate(((nk, ukmax), (nb, ubmax))):
+            if self.memb == "gaussian":
+                h = 2 * umax / (2 * np.sqrt(2 * LN2) * (nr - 1))  # σ, as in basis()
+            else:
+                h = 2 * umax / (nr - 1)
+            P[:, _P_HK + j] = h
+            P[:, _NP + (0 if j == 0 else nk):_NP + (nk if j == 0 else nk + nb)] = np.linspace(-umax, umax, nr)
+        dt = self.ctx.control_dt
+        e = np.broadcast_to(np.exp(-np.asarray(p.alpha, float) * dt), (n, nc))  # as in step()
+        gk = np.broadcast_to(np.asarray(p.lambda_k, float) / self.M, (n, nc))
+        gb = np.broadcast_to(np.asarray(p.lambda_b, float) / self.M, (n, nc))
+        pc = np.stack([gk, gb, e, np.broadcast_to(self.M, (n, nc))], axis=-1)  # (n, nc, 4)
+        P[:, _NP + nk + nb:] = pc.reshape(n, -1)
+        o = self._kernel_layout()
+        S = np.zeros((n, o["_next"]))
+        S[:, 1] = dt
+        if self._last is not None:
+            S[:, 0] = 1.0
+            dx0, dv0, pk0, pb0 = self._last
+            S[:, o["vhat"]:o["vhat"] + nc] = self.v_hat
+            S[:, o["dx0"]:o["dx0"] + nc] = dx0
+            S[:, o["dv0"]:o["dv0"] + nc] = dv0
+            S[:, o["v0"]:o["v0"] + nc] = self._v0
+            S[:, o["pk0"]:o["pk0"] + 2 * nc * nk] = np.concatenate([pk0, np.zeros_like(pk0)], axis=-1).reshape(n, -1)
+            S[:, o["pb0"]:o["pb0"] + 2 * nc * nb] = np.concatenate([pb0, np.zeros_like(pb0)], axis=-1).reshape(n, -1)
+        for name, v in (("F", self.F), ("fk", self.fk), ("fb", self.fb), ("verr", self.v_err)):
+            S[:, o[name]:o[name] + nc] = v
+        S[:, o["bk"]:o["bk"] + nc * nk] = self.beta_k.reshape(n, -1)
+        S[:, o["bb"]:o["bb"] + nc * nb] = self.beta_b.reshape(n, -1)
+        return np.ascontiguousarray(P), S
+
+    def kernel_signals(self):
+        o, nc = self._kernel_layout(), self.ctx.n_corners
+        out = {"fk_hat": (o["fk"], o["fk"] + nc), "fb_hat": (o["fb"], o["fb"] + nc), "v_err": (o["verr"], o["verr"] + nc)}
+        if nc == 1:
+            out["beta_k"] = (o["bk"], o["bk"] + self.nk)
+            out["beta_b"] = (o["bb"], o["bb"] + self.nb)
+        return out
+
+    def kernel_sync(self, st):
+        n, nc, nk, nb = self.ctx.n_cars, self.ctx.n_corners, self.nk, self.nb
+        o = self._kernel_layout()
+
+        def blk(name, w=nc):
+            return np.array(st[:, o[name]:o[name] + w])
+
+        self.F, self.fk, self.fb, self.v_err = blk("F"), blk("fk"), blk("fb"), blk("verr")
+        self.beta_k = blk("bk", nc * nk).reshape(n, nc, nk)
+        self.beta_b = blk("bb", nc * nb).reshape(n, nc, nb)
+        if st[0, 0] != 0.0:
+            self.v_hat = blk("vhat")
+            self._v0 = blk("v0")
+            self._last = (blk("dx0"), blk("dv0"), blk("pk0", 2 * nc * nk).reshape(n, nc, 2 * nk)[..., :nk],
+                          blk("pb0", 2 * nc * nb).reshape(n, nc, 2 * nb)[..., :nb])

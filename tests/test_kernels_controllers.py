@@ -37,6 +37,28 @@ def _python_run(sim):
     return out
 
 
+def _check_sync(make_sim):
+    """Drive a fresh controller with the first half of a Python run's readings through its kernel, write the
+    kernel state back (kernel_sync), continue with the Python step: the commands and signals of the second
+    half must equal the Python run's exactly."""
+    run = _python_run(make_sim())
+    ctrl = make_sim().controller
+    p, st = ctrl.kernel_data()
+    names = list(ctrl.ctx.sensors)
+    u = np.zeros(ctrl.ctx.n_corners)
+    half = len(run) // 2
+    for r in run[:half]:
+        for i in range(ctrl.ctx.n_cars):
+            yi = np.concatenate([np.asarray(r["readings"][nm], float).reshape(ctrl.ctx.n_cars, -1)[i] for nm in names])
+            ctrl.kernel(r["t"], yi, p[i], st[i], u)
+    ctrl.kernel_sync(st)
+    for r in run[half:]:
+        np.testing.assert_array_equal(np.broadcast_to(ctrl.step(r["t"], r["readings"]), r["u"].shape), r["u"])
+        for k, v in ctrl.signals().items():
+            np.testing.assert_array_equal(v, r["signals"][k])
+    return True
+
+
 # passive / skyhook ---------------------------------------------------------------------------------------
 
 # check_controller concatenates the readings of the declared sensors and cannot handle none: the runs of
@@ -143,7 +165,14 @@ def test_open_loop_kernel_exact_tables(tables):
 
 # the laws below call sin/cos/log/pow, evaluated by numpy's (possibly vectorised) routines in the reference
 # and by the C library in the kernel: they may differ in the last bit; allowed 1e-12 of the command's bound
+# (or of the largest quantity compared, _scale)
 REL = 1e-12
+
+
+def _scale(sim):
+    """The largest magnitude among the commands and logged signals of a Python run of ``sim``."""
+    return max(max(np.abs(r["u"]).max(), *(np.abs(v).max() for v in r["signals"].values()))
+               for r in _python_run(sim))
 
 
 def test_open_loop_kernel_sine_multisine_fade():
@@ -191,13 +220,14 @@ def test_open_loop_random_has_no_kernel():
 ROOT = __import__("pathlib").Path(__file__).resolve().parents[1]
 
 
-def _from_file(name, duration, **params):
+def _from_file(name, duration, road=None, **params):
     sc = load_scenario(ROOT / "scenarios" / name)
     sc.variants = {}
     sc.sim.duration = duration
     sc.outputs.plots = False
     sc = sc.model_copy(deep=True)
     sc.controller.params.update(params)
+    sc.road.params.update(road or {})
     return sc
 
 
@@ -229,21 +259,99 @@ def test_kim_kernel_exact():
     assert check_controller(Simulation([_from_file("kim_fig2.yaml", 0.1)])) == 0.0
 
 
-def test_kim_kernel_sync_restores_state():
-    sim = Simulation([_from_file("kim_fig2.yaml", 0.05)])
+def test_kim_kernel_sync():
+    assert _check_sync(lambda: Simulation([_from_file("kim_fig2.yaml", 0.04)]))
+
+
+# Toscano & Dumas -----------------------------------------------------------------------------------------
+
+def test_toscano_kernel_two_rule_ensemble_exact():
+    """The paper's two-rule triangles, three cars with different gains, initial estimates and masses
+    (one car with a given M, the others the static load), and Δx, Δv ranges (ensemble-wide in the law)
+    small enough that the triangle pair saturates at 0 on both sides."""
+    rng = dict(range_dx=0.002, range_dv=0.02)
+    cases = [dict(**rng), dict(k_ref=12000.0, b_ref=800.0, alpha=50.0, lambda_k=3e12, lambda_b=5e10, beta_k0=15000.0,
+                               beta_b0=1500.0, **rng),
+             dict(alpha=300.0, body_mass=250.0, lambda_k=0.0, **rng)]
+    sim = Simulation([_from_file("toscano_constant.yaml", 0.5, **c) for c in cases])
     run = _python_run(sim)
-    ref = sim.controller
-    kn = Simulation([_from_file("kim_fig2.yaml", 0.05)]).controller
-    p, st = kn.kernel_data()
-    names = list(kn.ctx.sensors)
-    u = np.zeros(kn.ctx.n_corners)
-    for r in run:
-        kn.kernel(r["t"], np.concatenate([np.asarray(r["readings"][nm], float)[0] for nm in names]), p[0], st[0], u)
-    kn.kernel_sync(st)
-    for a, b in zip(kn.theta, ref.theta):
-        np.testing.assert_array_equal(a, b)
-    np.testing.assert_array_equal(kn.x_hat, ref.x_hat)
-    for a, b in zip(kn._prev, ref._prev):
-        np.testing.assert_array_equal(a, b)
-    p2, st2 = kn.kernel_data()  # and kernel_data of the synced object gives the same state back
-    np.testing.assert_array_equal(st2, st)
+    assert np.all(np.isfinite(sim.controller.M))
+    dx = -np.array([r["readings"]["travel"][:, 0] for r in run])
+    dv = -np.array([r["readings"]["travel_rate"][:, 0] for r in run])
+    assert dx.max() > 0.002 and dx.min() < -0.002 and dv.max() > 0.02 and dv.min() < -0.02
+    assert check_controller(Simulation([_from_file("toscano_constant.yaml", 0.5, **c) for c in cases])) == 0.0
+
+
+def _toscano_half(membership, duration=0.4, **params):
+    return parse_scenario(dict(
+        vehicle=dict(model="half_car"), road=dict(type="sine", params={"frequency": 1.5, "amplitude": 0.03}, speed=10),
+        sensors=[dict(type="travel"), dict(type="corner_body_vel"), dict(type="travel_rate"), dict(type="actuator_force")],
+        actuator=dict(type="ideal", params=dict(time_constant=0.003)),
+        controller=dict(type="toscano_dumas", params=dict(membership=membership, n_rules_k=5, n_rules_b=9,
+                                                          range_dx=0.015, range_dv=0.2, **params)),
+        sim=dict(duration=duration, dt=0.0005, control_dt=0.001, log_dt=0.001)))
+
+
+def test_toscano_kernel_grid_triangles_half_car_exact():
+    """5 and 9 triangles on a grid (9: numpy's 8-accumulator pairwise sum), ranges exceeded (end triangles
+    held), measured force in the estimator, two corners, three cars."""
+    scs = [_toscano_half("triangular", force_sensor="actuator_force"),
+           _toscano_half("triangular", force_sensor="actuator_force", lambda_k=5e11, beta_k0=1000.0),
+           _toscano_half("triangular", force_sensor="actuator_force", alpha=80.0, body_mass=230.0)]
+    run = _python_run(Simulation(scs))
+    dx = -np.array([r["readings"]["travel"] for r in run])
+    dv = -np.array([r["readings"]["travel_rate"] for r in run])
+    assert dx.max() > 0.015 and dx.min() < -0.015 and dv.max() > 0.2 and dv.min() < -0.2
+    assert check_controller(Simulation(scs)) == 0.0
+
+
+def test_toscano_kernel_gaussian():
+    """Gaussian memberships call exp: numpy's and the C library's may differ in the last bit; the error then
+    passes through the basis normalisation and the estimates (≈ ulps of the command)."""
+    scs = [_toscano_half("gaussian"), _toscano_half("gaussian", lambda_b=1e11), _toscano_half("gaussian", k_ref=5000.0)]
+    assert check_controller(Simulation(scs)) <= REL * _scale(Simulation(scs))
+
+
+def test_toscano_kernel_sync():
+    assert _check_sync(lambda: Simulation([_toscano_half("triangular", duration=0.05, force_sensor="actuator_force"),
+                                           _toscano_half("triangular", duration=0.05, beta_b0=100.0,
+                                                         force_sensor="actuator_force")]))
+
+
+# Fallah --------------------------------------------------------------------------------------------------
+
+FALLAH_REASON = """the numpy law sums the differentiator by tensordot (OpenBLAS, FMA kernels) and the switching
+function by einsum, in orders of their own, and calls exp: last-bit differences, which do not accumulate
+(the integrators see only exactly reproduced quantities)"""
+
+
+def test_fallah_kernel_full_car_bump():
+    """Full car over the bump, three cars: the paper's law, a sigmoid shifted beyond the ±500 clip both
+    ways (full force up and down) and a steeper one; a short mean window so that the moving-mean ring buffers
+    wrap around during the run.  """ + FALLAH_REASON
+    cases = [dict(mean_window=0.1), dict(mean_window=0.1, c=600.0, a=8.0), dict(mean_window=0.1, c=-600.0, f_max=3000.0)]
+    def make():
+        return Simulation([_from_file("fallah_bump.yaml", 0.6, road=dict(start=0.5), **c) for c in cases])
+    run = _python_run(make())
+    u = np.array([r["u"] for r in run])
+    assert u[:, 0].min() < -500 and u[:, 0].max() > 500  # the bump is crossed
+    assert np.all(u[:, 1] == -6000.0) and np.all(u[:, 2] == 3000.0)  # clipped sigmoid argument
+    assert check_controller(make()) <= REL * _scale(make())
+
+
+def test_fallah_kernel_no_gyro_no_position_mean_removal():
+    def make():
+        scs = []
+        for a in (2.0, 4.0, 8.0):
+            scs.append(parse_scenario(dict(
+                vehicle=dict(model="half_car"), road=dict(type="bump", params=dict(preset="fallah"), speed=9.7222),
+                sensors=[dict(type="travel"), dict(type="body_acc")], actuator=dict(type="ideal", params=dict(max_force=6000)),
+                controller=dict(type="fallah", params=dict(a=a, gyro_sensor=None, position_mean_removal=False,
+                                                           mean_window=0.05)),
+                sim=dict(duration=0.4, dt=0.0005, control_dt=0.001, log_dt=0.001))))
+        return Simulation(scs)
+    assert check_controller(make()) <= REL * _scale(make())
+
+
+def test_fallah_kernel_sync():
+    assert _check_sync(lambda: Simulation([_from_file("fallah_bump.yaml", 0.15, mean_window=0.03)]))
