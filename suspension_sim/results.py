@@ -354,7 +354,10 @@ def compute_metrics_many(t, channels: dict, suffixes, infos: list, stop_gaps: li
     ens = None
     t = np.asarray(t)
     if len(t) >= 2 and t.dtype == np.float64 and all(a.dtype == np.float64 for a in channels.values()):
-        chans = {k: np.ascontiguousarray(a) for k, a in channels.items()}  # rows contiguous: pairwise sums per car
+        needed = [fn.ensemble_channels for _, fn in METRICS.items() if getattr(fn, "ensemble", None) is not None]
+        needed = [c.format(s=s) if "{s}" in c else c for chs in needed for c in chs
+                  for s in (suffixes if "{s}" in c else [""])]
+        chans = _contiguous(channels, [c for c in dict.fromkeys(needed) if c in channels])
         static = {s: np.array([float(inf["static_tire_force"][s]) for inf in infos])
                   for s in suffixes if all(s in inf.get("static_tire_force", {}) for inf in infos)}
         ens = EnsembleView(channels=chans, t=t, suffixes=list(suffixes), static_tire_force=static,
@@ -381,6 +384,38 @@ def compute_metrics_many(t, channels: dict, suffixes, infos: list, stop_gaps: li
                 continue
             o.update({k: float(v) for k, v in vals.items()})
     return outs
+
+
+def _contiguous(channels: dict, needed: list) -> dict:
+    """``channels`` with the ``needed`` ones as arrays with C-contiguous rows (one row per car: numpy then sums
+    every car's samples pairwise in the same order as one car's 1-D array).  Channels logged as ``L[:, :, j]``
+    views of one ``(n_cars, n_log, n_channels)`` buffer are gathered together, a few cars at a time (a
+    strided copy per channel would read the whole buffer from memory once per channel)."""
+    out = dict(channels)
+    groups: dict = {}
+    for name in needed:
+        a = channels[name]
+        if a.flags.c_contiguous:
+            continue
+        b, j = a.base, None
+        if isinstance(b, np.ndarray) and b.ndim == 3 and a.ndim == 2 and b.dtype == a.dtype \
+                and b.shape[:2] == a.shape and b.strides[:2] == a.strides and b.strides[2] > 0:
+            off = a.__array_interface__["data"][0] - b.__array_interface__["data"][0]
+            if off % b.strides[2] == 0 and 0 <= off // b.strides[2] < b.shape[2]:
+                j = off // b.strides[2]
+        if j is None:
+            out[name] = np.ascontiguousarray(a)
+        else:
+            groups.setdefault(id(b), (b, []))[1].append((name, int(j)))
+    for b, items in groups.values():
+        idx = [j for _, j in items]
+        g = np.empty((len(idx), b.shape[0], b.shape[1]), dtype=b.dtype)
+        bs = max(1, (1 << 20) // max(1, b.shape[1] * b.shape[2] * b.itemsize))  # ~1 MB of the buffer per block
+        for c0 in range(0, b.shape[0], bs):
+            g[:, c0:c0 + bs] = np.take(b[c0:c0 + bs], idx, axis=2).transpose(2, 0, 1)
+        for k, (name, _) in enumerate(items):
+            out[name] = g[k]
+    return out
 
 
 def versions() -> dict:

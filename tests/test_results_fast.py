@@ -16,7 +16,7 @@ import legacy_results as L
 from suspension_sim.config import parse_scenario
 from suspension_sim.metrics.base import EnsembleView, RunView
 from suspension_sim.registry import METRICS
-from suspension_sim.results import Result, compute_metrics, compute_metrics_many
+from suspension_sim.results import Result, _contiguous, compute_metrics, compute_metrics_many
 from suspension_sim.simulation import Simulation
 
 
@@ -191,10 +191,21 @@ def test_ensemble_versions_equal_per_car_metrics(n_log, fs, sfx):
     gaps = [{s: float(rng.uniform(0.001, 1.0)) for s in sfx} for _ in range(n)]
     infos = [{"suffixes": list(sfx), "static_tire_force": static[i], "stop_gap": gaps[i],
               "stop_gap_sides": ({sfx[0]: [0.5, 2.0]} if i % 2 else {})} for i in range(n)]
-    # a non-contiguous channel (views of a bigger buffer, as a compiled loop might log)
-    buf = np.empty((n, n_log, 3))
-    buf[:, :, 1] = ch["body_acc"]
-    ch["body_acc"] = buf[:, :, 1]
+    # logged as a compiled loop may: L[:, :, j] views of one (n_cars, n_log, n_channels) buffer (two buffers
+    # here), one channel transposed ((n_log, n_cars) memory), the rest contiguous
+    names = [k for k in ch if k != "body_acc"]
+    buf = np.empty((n, n_log, len(names) + 1))
+    buf2 = np.empty((n, n_log, 3))
+    for j, k in enumerate(names):
+        buf[:, :, j + 1] = ch[k]
+        ch[k] = buf[:, :, j + 1]
+    buf2[:, :, 2] = ch["body_acc"]
+    ch["body_acc"] = buf2[:, :, 2]
+    ch["travel" + sfx[-1]] = np.ascontiguousarray(ch["travel" + sfx[-1]].T).T
+    ch["extra"] = np.ascontiguousarray(ch["pitch"])
+    gathered = _contiguous(ch, list(ch))
+    assert all(gathered[k].flags.c_contiguous and np.array_equal(gathered[k], ch[k], equal_nan=True) for k in ch)
+    assert gathered["extra"] is ch["extra"]
 
     def view(i):
         cols = {"t": t, **{k: np.array(a[i]) for k, a in ch.items()}}

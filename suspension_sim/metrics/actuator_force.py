@@ -15,7 +15,7 @@ def actuator_force(run: RunView) -> dict:
     return out
 
 
-@ensemble_version(actuator_force)
+@ensemble_version(actuator_force, channels=("actuator_force{s}",))
 def _actuator_force_many(ens: EnsembleView) -> dict:
     out = {}
     for s in ens.suffixes:

@@ -42,7 +42,7 @@ def actuator_power(run: RunView) -> dict:
     return out
 
 
-@ensemble_version(actuator_power)
+@ensemble_version(actuator_power, channels=("actuator_force{s}", "travel_rate{s}"))
 def _actuator_power_many(ens: EnsembleView) -> dict:
     out = {}
     t = ens.t

@@ -19,7 +19,7 @@ keys in the same order as the per-car function and **bit-identical** values (the
 operations on every car's samples: numpy reductions along the contiguous last axis sum in the same pairwise
 order as on one car's 1-D array; ``tests/test_results_fast.py`` checks it against the per-car function)::
 
-    @ensemble_version(body_acc)
+    @ensemble_version(body_acc, channels=("body_acc",))
     def _body_acc_many(ens: EnsembleView) -> dict[str, np.ndarray]:
         a = ens.col("body_acc")
         return {"body_acc_rms": rms_rows(a), "body_acc_peak": np.max(np.abs(a), axis=1)}
@@ -104,9 +104,13 @@ class EnsembleView:
         return len(self.infos) if self.infos else next(iter(self.channels.values())).shape[0]
 
     def col(self, name: str) -> np.ndarray:
+        """Channel ``name`` of every car, ``(n_cars, n_log)`` with contiguous rows (``KeyError`` if absent)."""
         if name == "t":
             return np.broadcast_to(self.t, (self.n_cars, len(self.t)))
-        return self.channels[name]
+        a = self.channels[name]
+        if not a.flags.c_contiguous:  # rows contiguous: numpy then sums each car's row pairwise as for one car
+            a = self.channels[name] = np.ascontiguousarray(a)
+        return a
 
     def has(self, name: str) -> bool:
         return name == "t" or name in self.channels
@@ -121,12 +125,16 @@ class EnsembleView:
         return float(t[1] - t[0]) if len(t) > 1 else 0.0
 
 
-def ensemble_version(metric):
+def ensemble_version(metric, channels: tuple = ()):
     """Decorator: attach ``fn(ens: EnsembleView) -> {key: (n_cars,) array}`` to the per-car ``metric`` as its
-    ensemble version (same keys, same order, bit-identical values)."""
+    ensemble version (same keys, same order, bit-identical values).  ``channels``: the log channels it reads
+    (``{s}`` stands for every corner suffix), so that channels logged as strided views (e.g. ``L[:, :, j]``
+    of one ``(n_cars, n_log, n_channels)`` buffer) are made contiguous together in one cache-friendly pass
+    beforehand; channels read without being declared are copied one by one when strided (slower)."""
 
     def deco(fn):
         metric.ensemble = fn
+        metric.ensemble_channels = tuple(channels)
         return fn
 
     return deco

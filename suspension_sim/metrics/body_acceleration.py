@@ -12,7 +12,7 @@ def body_acc(run: RunView) -> dict:
     return {"body_acc_rms": rms(a), "body_acc_peak": float(np.max(np.abs(a)))}
 
 
-@ensemble_version(body_acc)
+@ensemble_version(body_acc, channels=("body_acc",))
 def _body_acc_many(ens: EnsembleView) -> dict:
     a = ens.col("body_acc")
     return {"body_acc_rms": rms_rows(a), "body_acc_peak": np.max(np.abs(a), axis=1)}

@@ -36,11 +36,11 @@ def roll(run: RunView) -> dict:
     return _attitude(run, "roll")
 
 
-@ensemble_version(pitch)
+@ensemble_version(pitch, channels=("pitch", "pitch_acc"))
 def _pitch_many(ens: EnsembleView) -> dict:
     return _attitude_many(ens, "pitch")
 
 
-@ensemble_version(roll)
+@ensemble_version(roll, channels=("roll", "roll_acc"))
 def _roll_many(ens: EnsembleView) -> dict:
     return _attitude_many(ens, "roll")

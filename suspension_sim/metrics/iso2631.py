@@ -227,7 +227,7 @@ def iso2631(run: RunView) -> dict:
     return weighted_metrics(a, 1.0 / run.dt, "body_acc", "Wk")
 
 
-@ensemble_version(iso2631)
+@ensemble_version(iso2631, channels=("body_acc",))
 def _iso2631_many(ens: EnsembleView) -> dict:
     a = ens.col("body_acc")
     dt = ens.dt

@@ -38,7 +38,7 @@ def suspension_travel(run: RunView) -> dict:
     return out
 
 
-@ensemble_version(suspension_travel)
+@ensemble_version(suspension_travel, channels=("travel{s}",))
 def _suspension_travel_many(ens: EnsembleView) -> dict:
     out = {}
     T = duration(ens)

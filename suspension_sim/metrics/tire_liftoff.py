@@ -29,7 +29,7 @@ def tire_liftoff(run: RunView) -> dict:
     return out
 
 
-@ensemble_version(tire_liftoff)
+@ensemble_version(tire_liftoff, channels=("tire_force{s}",))
 def _tire_liftoff_many(ens: EnsembleView) -> dict:
     out = {}
     T = duration(ens)

@@ -25,7 +25,7 @@ def tire_load(run: RunView) -> dict:
     return out
 
 
-@ensemble_version(tire_load)
+@ensemble_version(tire_load, channels=("tire_force{s}",))
 def _tire_load_many(ens: EnsembleView) -> dict:
     out = {}
     for s in ens.suffixes:

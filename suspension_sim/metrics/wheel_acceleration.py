@@ -15,7 +15,7 @@ def wheel_acc(run: RunView) -> dict:
     return out
 
 
-@ensemble_version(wheel_acc)
+@ensemble_version(wheel_acc, channels=("wheel_acc{s}",))
 def _wheel_acc_many(ens: EnsembleView) -> dict:
     out = {}
     for s in ens.suffixes:
