@@ -35,6 +35,7 @@ absolute acceleration), ``kp.k``, ``uax.k``.
 """
 from __future__ import annotations
 
+import numba
 import numpy as np
 from pydantic import Field
 from scipy.linalg import solve_continuous_lyapunov
@@ -43,7 +44,7 @@ from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
-from .thesis_common import FilterBank, _f
+from .thesis_common import FB_HEADER, KERNEL_STAMP, FilterBank, KernelLayout, _f, fb_update, fb_y, k_dot
 
 
 class MDOFParams(Params):
@@ -62,6 +63,106 @@ class MDOFParams(Params):
     sigma: float = Field(0.2, ge=0, description="leakage σ (1/s) on the integral parts (σ-modification, our addition)")
     gain_limit: float = Field(1.0, gt=0, description="each adapted gain entry stays within ± gain_limit × its nominal scale")
     adapt_model: bool = Field(True, description="adapt M0, C0, K0, D0 as well (False: only K_p, K_v, U_ax)")
+
+
+# ---- compiled kernel (suspension_sim.compiled): MDOFAdaptive.step for one car ------------------------------
+# p: sensor offsets (travel, travel_rate, road[-1], road_vel[-1]); h, α, β, σ, adapt_model; R2, R3, P⁻¹
+# (2 × 2 each), rows 2–3 of the reference A (2 × 4) and B (2); the reference filter's header; a table of the
+# 7 gains (_KEYS order: n columns, p offset of [v_scale, G0, g_scale, limit], st offsets of I, G and the
+# regressor); then those blocks.  st: the signals ref_z = Z_m (2), err = E (2), ref_acc, ref_x; ẇ_prev,
+# ẇ_prev set; scratch x_r (4), ẍ_r (2), Ż_m, Z̈_m, Ė, Θ, v, tot (2 each), ẅ, 1; then I and G of each gain
+# (the signals kp and uax are G's blocks), the filter state.
+#
+# Θ = E R2ᵀ + Ė R3ᵀ and U = tot P⁻ᵀ are BLAS products in step; the kernel sums them in order.  Both are exact
+# whatever the order: R2, R3 are diagonal (Ω1, Ω2 are multiples of I, so the Lyapunov solution is), P⁻¹ has
+# entries 0 and 1 — the products with 0 and 1 are exact (a non-diagonal Ω would need a tolerance).
+_KEYS = ("kp", "kv", "uax", "m0", "c0", "k0", "d0")
+_P_R2, _P_R3, _P_PI, _P_AR, _P_BR, _P_REF, _P_KEYS = 9, 13, 17, 21, 29, 31, 31 + FB_HEADER
+_ST_ZM, _ST_E, _ST_RA, _ST_RX, _ST_WDP, _ST_HAS = 0, 2, 4, 5, 6, 7
+_ST_XR, _ST_XA, _ST_ZMD, _ST_ZMDD, _ST_ED, _ST_TH, _ST_V, _ST_TOT, _ST_WDD, _ST_ONE = 8, 12, 14, 16, 18, 20, 22, 24, 26, 27
+_ST_N = 28
+
+
+def _build_kernel(stamp):
+    @numba.njit(cache=True)
+    def _kernel(t, y, p, st, u):
+        if stamp < 0:  # never true: ties numba's cache key to thesis_common (see KERNEL_STAMP)
+            return
+        iz = int(p[0])
+        izd = int(p[1])
+        w = y[int(p[2])]
+        wd = y[int(p[3])]
+        h = p[4]
+        wdd = 0.0
+        if st[_ST_HAS] != 0.0:
+            wdd = (wd - st[_ST_WDP]) / h
+        st[_ST_WDP] = wd
+        st[_ST_HAS] = 1.0
+        st[_ST_WDD] = wdd
+        for o in range(4):
+            st[_ST_XR + o] = fb_y(p, st, _P_REF, 0, o)
+        for i in range(2):
+            st[_ST_XA + i] = k_dot(p, _P_AR + 4 * i, st, _ST_XR, 4) + p[_P_BR + i] * w
+        st[_ST_ZM] = st[_ST_XR] - st[_ST_XR + 1]
+        st[_ST_ZM + 1] = st[_ST_XR + 1] - w
+        st[_ST_ZMD] = st[_ST_XR + 2] - st[_ST_XR + 3]
+        st[_ST_ZMD + 1] = st[_ST_XR + 3] - wd
+        st[_ST_ZMDD] = st[_ST_XA] - st[_ST_XA + 1]
+        st[_ST_ZMDD + 1] = st[_ST_XA + 1] - wdd
+        for i in range(2):
+            st[_ST_E + i] = st[_ST_ZM + i] - y[iz + i]
+            st[_ST_ED + i] = st[_ST_ZMD + i] - y[izd + i]
+        for i in range(2):
+            st[_ST_TH + i] = ((st[_ST_E] * p[_P_R2 + 2 * i] + st[_ST_E + 1] * p[_P_R2 + 2 * i + 1])
+                              + (st[_ST_ED] * p[_P_R3 + 2 * i] + st[_ST_ED + 1] * p[_P_R3 + 2 * i + 1]))
+        st[_ST_ONE] = 1.0
+        a = p[5]
+        b = p[6]
+        sig = p[7]
+        nkeys = 7 if p[8] != 0.0 else 3
+        for kk in range(nkeys):
+            tb = _P_KEYS + 5 * kk
+            nk = int(p[tb])
+            pb = int(p[tb + 1])
+            io = int(p[tb + 2])
+            go = int(p[tb + 3])
+            ro = int(p[tb + 4])
+            vs = p[pb]
+            for j in range(nk):
+                st[_ST_V + j] = st[ro + j] / vs
+            nrm = 1.0 + k_dot(st, _ST_V, st, _ST_V, nk)
+            for i in range(2):
+                for j in range(nk):
+                    e = i * nk + j
+                    outer = st[_ST_TH + i] * st[_ST_V + j] * p[pb + 1 + 2 * nk + e] / nrm
+                    lim = p[pb + 1 + 4 * nk + e]
+                    ie = st[io + e] + (a * h * outer - sig * h * st[io + e])
+                    ie = min(max(ie, -lim), lim)
+                    st[io + e] = ie
+                    st[go + e] = p[pb + 1 + e] + ie + min(max(b * outer, -lim), lim)
+        # tot = U_ax + M0 Z̈_m + C0 Ż_m + K0 Z_m + D0 ẅ + K_p E + K_v Ė (the table's G offsets, _KEYS order)
+        gkp = int(p[_P_KEYS + 3])
+        gkv = int(p[_P_KEYS + 5 + 3])
+        gua = int(p[_P_KEYS + 10 + 3])
+        gm0 = int(p[_P_KEYS + 15 + 3])
+        gc0 = int(p[_P_KEYS + 20 + 3])
+        gk0 = int(p[_P_KEYS + 25 + 3])
+        gd0 = int(p[_P_KEYS + 30 + 3])
+        for i in range(2):
+            st[_ST_TOT + i] = (st[gua + i] + k_dot(st, gm0 + 2 * i, st, _ST_ZMDD, 2)
+                               + k_dot(st, gc0 + 2 * i, st, _ST_ZMD, 2) + k_dot(st, gk0 + 2 * i, st, _ST_ZM, 2)
+                               + st[gd0 + i] * wdd + k_dot(st, gkp + 2 * i, st, _ST_E, 2)
+                               + k_dot(st, gkv + 2 * i, st, _ST_ED, 2))
+        for i in range(2):
+            u[i] = st[_ST_TOT] * p[_P_PI + 2 * i] + st[_ST_TOT + 1] * p[_P_PI + 2 * i + 1]
+        fb_update(p, st, _P_REF, 0, y, int(p[2]))
+        st[_ST_RA] = st[_ST_XA]
+        st[_ST_RX] = st[_ST_XR]
+
+    return _kernel
+
+
+_kernel = _build_kernel(KERNEL_STAMP)
 
 
 @CONTROLLERS.register("thesis_mdof_adaptive")
@@ -158,3 +259,60 @@ class MDOFAdaptive(Controller):
 
     def signals(self):
         return self._sig
+
+    # ---- compiled kernel (see _kernel) ----
+    kernel = staticmethod(_kernel)
+
+    def kernel_data(self):
+        n, p = self.ctx.n_cars, self.p
+        lay = KernelLayout(n)
+        off = [self.ctx.sensor_slice("travel")[0], self.ctx.sensor_slice("travel_rate")[0],
+               self.ctx.sensor_slice("road")[1] - 1, self.ctx.sensor_slice("road_vel")[1] - 1]
+        lay.p([float(o) for o in off] + [self.ctx.control_dt, _f(p.alpha), _f(p.beta), _f(p.sigma),
+                                         float(bool(p.adapt_model))])
+        assert lay.p(self.R2) == _P_R2 and lay.p(self.R3) == _P_R3 and lay.p(self.Pinv) == _P_PI
+        assert lay.p(self.Ar[2:]) == _P_AR and lay.p(self.Br[2:, 0]) == _P_BR
+        assert lay.p(np.zeros(FB_HEADER + 5 * len(_KEYS))) == _P_REF
+        sig = self._sig
+
+        def col(k, w):
+            return np.asarray(sig[k], dtype=float).reshape(n, w) if k in sig else np.zeros((n, w))
+
+        has = self.wd_prev is not None
+        wdp = np.asarray(self.wd_prev, dtype=float).reshape(n, 1) if has else np.zeros((n, 1))
+        lay.st(np.concatenate([col("ref_z", 2), col("err", 2), col("ref_acc", 1), col("ref_x", 1), wdp,
+                               np.full((n, 1), float(has))], axis=1), per_car=True)
+        assert lay.st(np.zeros(_ST_N - _ST_XR)) == _ST_XR
+        reg = {"kp": _ST_E, "kv": _ST_ED, "uax": _ST_ONE, "m0": _ST_ZMDD, "c0": _ST_ZMD, "k0": _ST_ZM, "d0": _ST_WDD}
+        table = []
+        for k in _KEYS:
+            g0 = np.asarray(self.G0[k], dtype=float)
+            lim = _f(p.gain_limit) * self.g_scale[k]
+            pb = lay.p(np.concatenate([[self.v_scale[k]], g0.ravel(), self.g_scale[k].ravel(), lim.ravel()]))
+            io = lay.st(self.I[k].reshape(n, -1), per_car=True)
+            go = lay.st(self.G[k].reshape(n, -1), per_car=True)
+            table += [g0.shape[1], pb, io, go, reg[k]]
+        lay.set_p(_P_REF + FB_HEADER, table)
+        self._kso = {"ref": self.ref.kernel_pack(lay, _P_REF)}
+        self._kgo = {k: (int(table[5 * i + 2]), int(table[5 * i + 3])) for i, k in enumerate(_KEYS)}
+        return lay.arrays()
+
+    def kernel_signals(self):
+        if not hasattr(self, "_kgo"):
+            self.kernel_data()
+        gkp, gua = self._kgo["kp"][1], self._kgo["uax"][1]
+        return {"ref_z": (_ST_ZM, _ST_ZM + 2), "err": (_ST_E, _ST_E + 2), "ref_acc": (_ST_RA, _ST_RA + 1),
+                "ref_x": (_ST_RX, _ST_RX + 1), "kp": (gkp, gkp + 4), "uax": (gua, gua + 2)}
+
+    def kernel_sync(self, st):
+        st = np.asarray(st, dtype=float)
+        n = st.shape[0]
+        for k, (io, go) in self._kgo.items():
+            size = self.G0[k].size
+            self.I[k] = np.array(st[:, io:io + size]).reshape(self.I[k].shape)
+            self.G[k] = np.array(st[:, go:go + size]).reshape(self.G[k].shape)
+        self.ref.kernel_sync(st, self._kso["ref"])
+        if st[0, _ST_HAS] != 0.0:
+            self.wd_prev = np.array(st[:, _ST_WDP])
+        self._sig = {k: np.array(st[:, a]) if b == a + 1 else np.array(st[:, a:b]).reshape(n, -1)
+                     for k, (a, b) in self.kernel_signals().items()}

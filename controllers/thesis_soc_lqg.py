@@ -34,6 +34,7 @@ from __future__ import annotations
 
 from typing import Optional
 
+import numba
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 from scipy.linalg import expm, solve_continuous_are, solve_discrete_are
@@ -42,7 +43,7 @@ from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
-from .thesis_common import _f
+from .thesis_common import KERNEL_STAMP, KernelLayout, _f, k_dot
 
 
 class ScheduleEntry(BaseModel):
@@ -82,6 +83,54 @@ def lqr_gain(M, K, C, Md, rho1, rho2):
     R = np.array([[Da * Da + rho2]])
     P = solve_continuous_are(A, B, Q, R, s=N)
     return A, B, np.linalg.solve(R, B.T @ P + N.T)
+
+
+# ---- compiled kernel (suspension_sim.compiled): SOCLQG.step for one car ------------------------------------
+# p: sensor offsets x, ẋ, w; update period; n schedule entries; L (3); Φ (3 × 3); the nominal gain (5); the
+# schedule times (n) and their gains (n × 5), computed by _gain at kernel_data.  st: gain (5), w_est (3),
+# W (3), next update time, X (5).
+_P_PER, _P_NS, _P_L, _P_PHI, _P_G0, _P_SCH = 3, 4, 5, 8, 17, 22
+_ST_G, _ST_WF, _ST_W, _ST_NEXT, _ST_X = 0, 5, 8, 11, 12
+
+
+def _build_kernel(stamp):
+    @numba.njit(cache=True)
+    def _kernel(t, y, p, st, u):
+        """W ← Wf Φᵀ is a BLAS product in step (an FMA chain or gemv, by build and size): summed here in
+        order without FMA, it can differ in the last bit (kernel_signals' w_est and the command within
+        ~1e-15 relative, tests/test_kernels_thesis.py)."""
+        if stamp < 0:  # never true: ties numba's cache key to thesis_common (see KERNEL_STAMP)
+            return
+        if t + 1e-9 >= st[_ST_NEXT]:
+            ns = int(p[_P_NS])
+            src = _P_G0
+            for e in range(ns):
+                if t >= p[_P_SCH + e]:
+                    src = _P_SCH + ns + 5 * e
+            for k in range(5):
+                st[_ST_G + k] = p[src + k]
+            st[_ST_NEXT] += p[_P_PER]
+        x = y[int(p[0])]
+        xd = y[int(p[1])]
+        w = y[int(p[2])]
+        innov = w - st[_ST_W]
+        for j in range(3):
+            st[_ST_WF + j] = st[_ST_W + j] + innov * p[_P_L + j]
+        st[_ST_X] = x
+        st[_ST_X + 1] = xd
+        for j in range(3):
+            st[_ST_X + 2 + j] = st[_ST_WF + j]
+        u[0] = -k_dot(st, _ST_G, st, _ST_X, 5)
+        for i in range(3):
+            acc = 0.0
+            for j in range(3):
+                acc += st[_ST_WF + j] * p[_P_PHI + 3 * i + j]
+            st[_ST_W + i] = acc
+
+    return _kernel
+
+
+_kernel = _build_kernel(KERNEL_STAMP)
 
 
 @CONTROLLERS.register("thesis_soc_lqg")
@@ -143,3 +192,31 @@ class SOCLQG(Controller):
 
     def signals(self):
         return self._sig
+
+    # ---- compiled kernel (see _kernel) ----
+    kernel = staticmethod(_kernel)
+
+    def kernel_data(self):
+        n, p = self.ctx.n_cars, self.p
+        lay = KernelLayout(n)
+        sched = list(p.schedule or [])
+        lay.p([float(self.ctx.sensor_slice(nm)[0]) for nm in ("body_pos", "body_vel", "road")]
+              + [_f(p.update_period), len(sched)])
+        assert lay.p(self.Lk[:, 0]) == _P_L and lay.p(self.Phi) == _P_PHI
+        lay.p(self._gain(*self._true_params(-np.inf)))
+        lay.p([e.time for e in sched])
+        lay.p(np.array([self._gain(e.mass, e.stiffness, e.damping) for e in sched]).reshape(-1))
+        wf = self._sig.get("w_est", np.zeros((n, 3)))
+        lay.st(np.concatenate([self.gain, wf, self.W, np.full((n, 1), float(self.next_update)), np.zeros((n, 5))],
+                              axis=1), per_car=True)
+        return lay.arrays()
+
+    def kernel_signals(self):
+        return {"gain": (_ST_G, _ST_G + 5), "w_est": (_ST_WF, _ST_WF + 3)}
+
+    def kernel_sync(self, st):
+        st = np.asarray(st, dtype=float)
+        self.gain = np.array(st[:, _ST_G:_ST_G + 5])
+        self.W = np.array(st[:, _ST_W:_ST_W + 3])
+        self.next_update = float(st[0, _ST_NEXT])
+        self._sig = {"gain": self.gain.copy(), "w_est": np.array(st[:, _ST_WF:_ST_WF + 3])}
