@@ -296,8 +296,11 @@ class Simulation:
 
     def _preview(self, t, dist):
         out = np.empty((self.plant.n, self.plant.nc))
+        # the sensor's stacked parameter: one distance per car ((n_cars, 1)) or a scalar
+        dists = np.broadcast_to(np.asarray(dist, dtype=float).reshape(-1), (self.plant.n,))
         for i, (road, sp) in enumerate(zip(self.roads, self.speeds)):
             x = float(sp.distance(t))
+            dist = float(dists[i])
             for c in range(self.plant.nc):
                 xc = x - self.corner_back[i, c] + dist
                 v = max(float(sp.speed(t)), 1e-9)
@@ -325,7 +328,18 @@ class Simulation:
 
     # ------------------------------------------------------------------------------------------------
     def run(self, progress: Callable[[float], None] | None = None) -> list:
-        """Simulate the whole run with the scenario's controller; one Result per car."""
+        """Simulate the whole run with the scenario's controller; one Result per car.
+
+        Runs the compiled loop (:mod:`suspension_sim.compiled`) when the components have kernels, else the
+        Python loop below; the results are the same.  :attr:`loop` tells which ran ("full", "hybrid",
+        "python") and :attr:`loop_reason` why not the full compiled loop."""
+        from .compiled.loop import plan, run as run_compiled
+
+        mode, self.loop_reason = plan(self)
+        self.loop = mode or "python"
+        if mode is not None:
+            self.results = run_compiled(self, mode, progress)
+            return self.results
         readings = self.start(progress)
         while readings is not None:
             readings = self.control_step(self.controller.step(self.t, readings))

@@ -13,7 +13,11 @@ def _corner(attr: str, unit: str, doc: str):
     def read(self, s: PlantState):
         return getattr(s, attr)
 
-    return type(attr.title().replace("_", ""), (Sensor,), {"read": read, "unit": unit, "__doc__": doc})
+    def kernel_field(self):
+        return attr, list(range(len(self.ctx.corners)))
+
+    return type(attr.title().replace("_", ""), (Sensor,),
+                {"read": read, "kernel_field": kernel_field, "unit": unit, "__doc__": doc})
 
 
 class _Body(Sensor):
@@ -24,6 +28,9 @@ class _Body(Sensor):
 
     def labels(self):
         return list(self.ctx.body_joints)
+
+    def kernel_field(self):
+        return self.attr, list(range(len(self.ctx.body_joints)))
 
 
 def _body(attr, unit, doc):
@@ -64,6 +71,9 @@ class ActuatorState(Sensor):
             raise ScenarioError(f"the actuator has no state {self.p.state!r} (it has {sorted(s.actuator_states)})",
                                 field="sensors.params.state")
         return s.actuator_states[self.p.state]
+
+    def kernel_field(self):
+        return "actuator_state", list(range(len(self.ctx.corners)))
 
 
 class PreviewParams(Params):

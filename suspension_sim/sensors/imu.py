@@ -26,3 +26,6 @@ class Gyro(Sensor):
 
     def labels(self):
         return [self.ctx.body_joints[k] for k in self._cols()]
+
+    def kernel_field(self):
+        return "body_vel", self._cols()

@@ -1,0 +1,669 @@
+"""The compiled closed loop (see the package docstring for the kernel protocol).
+
+:func:`plan` decides whether a :class:`~suspension_sim.simulation.Simulation` can run compiled and how:
+
+- ``"full"``: every effect and the actuator have kernels, and so have the controller and every sensor: one
+  numba call runs a whole road chunk (2000 physics steps), MuJoCo included;
+- ``"hybrid"``: effects and actuator compiled, the controller (or a sensor, or full-state access) stays in
+  Python: the compiled loop returns at each control instant, Python reads the sensors and calls the
+  controller exactly as the Python loop does, and the compiled loop goes on with the command;
+- ``None`` (with the reason): the Python loop of ``simulation.py`` runs (an effect or actuator without a
+  kernel, RK4, time-varying parameters, manoeuvres, or ``SUSPENSION_SIM_COMPILED=0``).
+
+For each combination of component kernels a small module is generated (the loop with the kernels' calls
+written out, so numba inlines them) into a cache folder, and compiled with ``cache=True``: the first run of a
+combination compiles it (about a second), later runs and processes load it from disk.  The folder is
+``$SUSPENSION_SIM_CACHE`` or ``~/.cache/suspension_sim``; when it is not writable, a temporary folder is used
+(compiled again in each process).
+
+The loop does what ``Simulation._steps`` does, in the same order and with the same arithmetic, so the
+results are the same (the tests compare the two loops value by value).
+"""
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import os
+import sys
+import tempfile
+import time as _time
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+TEMPLATE_VERSION = 1
+
+# PlantState fields a compiled sensor may read (Sensor.kernel_field), by code
+FIELDS = ("body_pos", "body_vel", "body_acc", "corner_body_pos", "corner_body_vel", "corner_body_acc",
+          "wheel_pos", "wheel_vel", "wheel_acc", "travel", "travel_rate", "road", "road_vel", "tire_force",
+          "actuator_force", "actuator_state")
+# rows of the per-quantity log column table
+LOG_ROWS = ("body_pos", "body_vel", "body_acc", "travel", "travel_rate", "wheel_z", "wheel_vel", "tire_force",
+            "tire_effect_force", "road", "road_vel", "command", "actuator_force", "effect_force", "wheel_acc")
+_BAD_WARNINGS = (mujoco.mjtWarning.mjWARN_BADCTRL, mujoco.mjtWarning.mjWARN_BADQACC,
+                 mujoco.mjtWarning.mjWARN_BADQVEL, mujoco.mjtWarning.mjWARN_BADQPOS)
+
+
+def _kernel_ref(fn):
+    """(module, name) of a module-level numba function, or None."""
+    py = getattr(fn, "py_func", None)
+    if py is None or "<locals>" in py.__qualname__:
+        return None
+    mod = sys.modules.get(py.__module__)
+    if mod is None or getattr(mod, py.__qualname__, None) is not fn:
+        return None
+    return py.__module__, py.__qualname__
+
+
+def plan(sim) -> tuple[str | None, str]:
+    """("full" | "hybrid" | None, reason) for a built Simulation."""
+    if os.environ.get("SUSPENSION_SIM_COMPILED", "1").strip().lower() in ("0", "false", "no", "off"):
+        return None, "SUSPENSION_SIM_COMPILED=0"
+    from . import mj
+
+    if mj.load() is not None:
+        return None, mj.load()
+    if sim.rk4:
+        return None, "integrator RK4"
+    if sim.variations:
+        return None, "time-varying parameters"
+    if sim.maneuver is not None:
+        return None, "manoeuvre"
+    for eff, _ in sim.effects:
+        if type(eff).kernel is None or _kernel_ref(type(eff).kernel) is None:
+            return None, f"effect {eff.name!r} has no kernel"
+    act = sim.actuator
+    if type(act).kernel_force is None or _kernel_ref(type(act).kernel_force) is None \
+            or _kernel_ref(type(act).kernel_advance) is None:
+        return None, f"actuator {act.name!r} has no kernel"
+    ctrl = sim.controller
+    if sim.full_state:
+        return "hybrid", "full-state access"
+    if type(ctrl).kernel is None or _kernel_ref(type(ctrl).kernel) is None:
+        return "hybrid", f"controller {ctrl.name!r} has no kernel"
+    for ch in sim.sensors:
+        if ch.sensor.kernel_field() is None:
+            return "hybrid", f"sensor {ch.name!r} has no kernel"
+    return "full", ""
+
+
+# ----------------------------------------------------------------------------------------------------------
+# code generation
+# ----------------------------------------------------------------------------------------------------------
+def _source_digest() -> str:
+    """Hash of the sources the generated modules depend on (numba's cache does not track callees)."""
+    global _DIGEST
+    if _DIGEST is None:
+        h = hashlib.sha256(str(TEMPLATE_VERSION).encode())
+        root = Path(__file__).resolve().parents[2]
+        for sub in ("suspension_sim/effects", "suspension_sim/actuators", "suspension_sim/compiled", "controllers"):
+            for f in sorted((root / sub).glob("*.py")):
+                h.update(f.name.encode())
+                h.update(f.read_bytes())
+        import numba
+
+        h.update(numba.__version__.encode())
+        h.update(mujoco.__version__.encode())
+        _DIGEST = h.hexdigest()[:16]
+    return _DIGEST
+
+
+_DIGEST = None
+_MODULES: dict = {}
+
+
+def _cache_dir() -> Path:
+    base = os.environ.get("SUSPENSION_SIM_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "suspension_sim")
+    d = Path(base) / "kernels"
+    try:
+        d.mkdir(parents=True, exist_ok=True)
+        probe = d / f".probe{os.getpid()}"
+        probe.write_text("")
+        probe.unlink()
+        return d
+    except OSError:
+        d = Path(tempfile.gettempdir()) / f"suspension_sim_kernels_{os.getuid() if hasattr(os, 'getuid') else 0}"
+        d.mkdir(parents=True, exist_ok=True)
+        return d
+
+
+def generate_source(effects, actuator, controller) -> str:
+    """Python source of the loop for ``effects`` [(module, name, target)], ``actuator`` ((module, force),
+    (module, advance)) and ``controller`` ((module, name) or None for the hybrid loop)."""
+    imp = ["import numpy as np", "from numba import njit",
+           "from suspension_sim.compiled.mj import mj_step1, mj_step2"]
+    for k, (mod, name, _) in enumerate(effects):
+        imp.append(f"from {mod} import {name} as eff{k}")
+    (am, af), (am2, aa) = actuator
+    imp.append(f"from {am} import {af} as act_force")
+    imp.append(f"from {am2} import {aa} as act_advance")
+    if controller is not None:
+        imp.append(f"from {controller[0]} import {controller[1]} as ctrl_kernel")
+    eargs = "".join(f", e{k}_p, e{k}_st, e{k}_map, e{k}_sigj, e{k}_lc" for k in range(len(effects)))
+    susp_calls, tire_calls, sig_logs = [], [], []
+    for k, (_, _, target) in enumerate(effects):
+        ind = " " * (24 if target == "tire" else 20)
+        call = (f"{ind}jj = e{k}_map[c]\n"
+                f"{ind}if jj >= 0:\n"
+                f"{ind}    {'f' if target != 'tire' else 'ft'} += eff{k}("
+                f"{'s, v' if target != 'tire' else 'tl, tv'}, t, dt, e{k}_p[i, jj], e{k}_st[i, jj])\n")
+        (tire_calls if target == "tire" else susp_calls).append(call)
+        sig_logs.append(
+            f"                for q in range(e{k}_sigj.shape[0]):\n"
+            f"                    for jj in range(e{k}_lc.shape[1]):\n"
+            f"                        L[i, jl, e{k}_lc[q, jj]] = e{k}_st[i, jj, e{k}_sigj[q]]\n")
+    n_eff = len(effects)
+    ctrl_block = ("                    ctrl_kernel(t, y[i], c_p[i], c_st[i], cmd[i])\n" if controller is not None
+                  else "                    pass\n")
+    body = f'''
+
+@njit(cache=True)
+def field_value(f, col, aux, i, jr, qpos, qvel, ten_len, ten_vel, acc, body_q, body_v, wheel_q, wheel_v, susp_t,
+                tire_t, has_tire, road_z, road_zd, kt, ct, Jb, F_act, F_teff, a_st):
+    if f == 0:
+        return qpos[body_q[i, col]]
+    if f == 1:
+        return qvel[body_v[i, col]]
+    if f == 2:
+        return acc[body_v[i, col]]
+    if f == 3:
+        return ten_len[susp_t[i, col]] + qpos[wheel_q[i, col]]
+    if f == 4:
+        return ten_vel[susp_t[i, col]] + qvel[wheel_v[i, col]]
+    if f == 5:
+        s = 0.0
+        for b in range(body_v.shape[1]):
+            s += Jb[i, col, b] * acc[body_v[i, b]]
+        return s
+    if f == 6:
+        return qpos[wheel_q[i, col]]
+    if f == 7:
+        return qvel[wheel_v[i, col]]
+    if f == 8:
+        return acc[wheel_v[i, col]] if has_tire else 0.0
+    if f == 9:
+        return ten_len[susp_t[i, col]]
+    if f == 10:
+        return ten_vel[susp_t[i, col]]
+    if f == 11:
+        return road_z[i, jr, col]
+    if f == 12:
+        return road_zd[i, jr, col]
+    if f == 13:
+        if has_tire:
+            return -kt[i, col] * ten_len[tire_t[i, col]] - ct[i, col] * ten_vel[tire_t[i, col]] + F_teff[i, col]
+        return 0.0
+    if f == 14:
+        return F_act[i, col]
+    return a_st[i, col, aux]
+
+
+@njit(cache=True)
+def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
+         road_q, road_v, road_servo, susp_t, tire_t, eff_s, eff_t, act, wheel_q, wheel_v, body_q, body_v,
+         free_q, free_v, has_tire, has_effects, has_tire_effects, kt, ct, Jb,
+         road_z, road_zd, k_chunk0, k0, k1, resume, full_control, n_steps, sub, log_every, dt, lim_x, lim_v,
+         cmd, F_act, F_eff, F_teff, acc, v_before, sv, a_p, a_st,
+         sens_field, sens_cols, sens_aux, sens_off, sens_k, sens_delay, sens_hold, sens_bias, sens_std, sens_q,
+         noise, noise_off, ring, y, kc_arr, c_p, c_st,
+         L, LC, lc_act, act_j, lc_y, lc_ctrl, ctrl_j{eargs}):
+    """Physics steps k0..k1-1 (road samples of step k at road_z[:, k - k_chunk0]).  Returns k1 when done,
+    k (>= 0) at a control instant that Python must handle (hybrid loop, after mj_step1 of step k: call again
+    with resume=1 from k), or -(k + 1) when the state check at control instant k fails."""
+    n, nc = road_q.shape
+    nb = body_q.shape[1]
+    n_log = L.shape[1]
+    k = k0
+    skip = resume
+    while k < k1:
+        t = k * dt
+        jr = k - k_chunk0
+        if not skip:
+            for i in range(n):
+                for c in range(nc):
+                    z = road_z[i, jr, c]
+                    qpos[road_q[i, c]] = z
+                    qvel[road_v[i, c]] = road_zd[i, jr, c]
+                    ctrl[road_servo[i, c]] = z
+            mj_step1(m_addr, d_addr)
+            if k % sub == 0:
+                bad = False
+                for w in range(warn_idx.shape[0]):
+                    if warn[warn_idx[w]] > 0:
+                        bad = True
+                for q in range(free_q.shape[0]):
+                    if not abs(qpos[free_q[q]]) <= lim_x:
+                        bad = True
+                for q in range(free_v.shape[0]):
+                    if not abs(qvel[free_v[q]]) <= lim_v:
+                        bad = True
+                if bad:
+                    return -(k + 1)
+                if not full_control:
+                    return k
+                # sensors: true value -> delay -> bias + noise -> quantisation -> sample-and-hold
+                kc = kc_arr[0]
+                for i in range(n):
+                    for sc in range(sens_field.shape[0]):
+                        D = sens_delay[sc]
+                        nr = D + 1
+                        for q in range(sens_k[sc]):
+                            ring[i, sc, kc % nr, q] = field_value(
+                                sens_field[sc], sens_cols[sc, q], sens_aux[sc], i, jr, qpos, qvel, ten_len, ten_vel,
+                                acc, body_q, body_v, wheel_q, wheel_v, susp_t, tire_t, has_tire, road_z, road_zd,
+                                kt, ct, Jb, F_act, F_teff, a_st)
+                        if kc % sens_hold[sc] == 0:
+                            old = kc - D if kc >= D else 0
+                            m_draw = kc // sens_hold[sc]
+                            for q in range(sens_k[sc]):
+                                val = ring[i, sc, old % nr, q] + sens_bias[sc]
+                                if sens_std[sc] > 0:
+                                    val = val + noise[i, noise_off[sc] + m_draw * sens_k[sc] + q]
+                                if sens_q[sc] > 0:
+                                    val = np.rint(val / sens_q[sc]) * sens_q[sc]
+                                y[i, sens_off[sc] + q] = val
+                    for c in range(nc):
+                        cmd[i, c] = 0.0
+{ctrl_block}                kc_arr[0] = kc + 1
+        skip = False
+        # forces from the state at the start of the step
+        for i in range(n):
+            for c in range(nc):
+                s = ten_len[susp_t[i, c]]
+                v = ten_vel[susp_t[i, c]]
+                sv[i, c, 0] = s
+                sv[i, c, 1] = v
+                Fa = act_force(cmd[i, c], s, v, t, dt, a_p[i, c], a_st[i, c])
+                F_act[i, c] = Fa
+                if has_effects:
+                    f = 0.0
+                    ft = 0.0
+                    if has_tire_effects:
+                        tl = ten_len[tire_t[i, c]]
+                        tv = ten_vel[tire_t[i, c]]
+{''.join(tire_calls) if tire_calls else "                        pass" + chr(10)}{''.join(susp_calls)}                    F_eff[i, c] = f
+                    F_teff[i, c] = ft
+                    ctrl[eff_s[i, c]] = f
+                    if has_tire:
+                        ctrl[eff_t[i, c]] = ft
+                ctrl[act[i, c]] = Fa
+        log_now = k % log_every == 0
+        jl = k // log_every
+        if log_now and jl < n_log:
+            for i in range(n):
+                for b in range(nb):
+                    if LC[0, b] >= 0:
+                        L[i, jl, LC[0, b]] = qpos[body_q[i, b]]
+                        L[i, jl, LC[1, b]] = qvel[body_v[i, b]]
+                for c in range(nc):
+                    L[i, jl, LC[3, c]] = ten_len[susp_t[i, c]]
+                    L[i, jl, LC[4, c]] = ten_vel[susp_t[i, c]]
+                    if has_tire:
+                        L[i, jl, LC[5, c]] = qpos[wheel_q[i, c]]
+                        L[i, jl, LC[6, c]] = qvel[wheel_v[i, c]]
+                        L[i, jl, LC[7, c]] = -kt[i, c] * ten_len[tire_t[i, c]] - ct[i, c] * ten_vel[tire_t[i, c]] + F_teff[i, c]
+                        L[i, jl, LC[8, c]] = F_teff[i, c]
+                    L[i, jl, LC[9, c]] = road_z[i, jr, c]
+                    L[i, jl, LC[10, c]] = road_zd[i, jr, c]
+                    L[i, jl, LC[11, c]] = cmd[i, c]
+                    L[i, jl, LC[12, c]] = F_act[i, c]
+                    L[i, jl, LC[13, c]] = F_eff[i, c]
+                for q in range(act_j.shape[0]):
+                    for c in range(nc):
+                        L[i, jl, lc_act[q, c]] = a_st[i, c, act_j[q]]
+                for q in range(lc_y.shape[0]):
+                    L[i, jl, lc_y[q]] = y[i, q]
+                for q in range(lc_ctrl.shape[0]):
+                    L[i, jl, lc_ctrl[q]] = c_st[i, ctrl_j[q]]
+{''.join(sig_logs)}        need_acc = log_now or (k + 1) % sub == 0
+        if need_acc:
+            for i in range(n):
+                for b in range(nb):
+                    v_before[body_v[i, b]] = qvel[body_v[i, b]]
+                if has_tire:
+                    for c in range(nc):
+                        v_before[wheel_v[i, c]] = qvel[wheel_v[i, c]]
+        mj_step2(m_addr, d_addr)
+        if need_acc:
+            for i in range(n):
+                for b in range(nb):
+                    acc[body_v[i, b]] = (qvel[body_v[i, b]] - v_before[body_v[i, b]]) / dt
+                if has_tire:
+                    for c in range(nc):
+                        acc[wheel_v[i, c]] = (qvel[wheel_v[i, c]] - v_before[wheel_v[i, c]]) / dt
+        if log_now and jl < n_log:
+            for i in range(n):
+                for b in range(nb):
+                    if LC[2, b] >= 0:
+                        L[i, jl, LC[2, b]] = acc[body_v[i, b]]
+                if has_tire:
+                    for c in range(nc):
+                        L[i, jl, LC[14, c]] = acc[wheel_v[i, c]]
+        for i in range(n):
+            for c in range(nc):
+                act_advance(cmd[i, c], sv[i, c, 0], sv[i, c, 1], t, dt, a_p[i, c], a_st[i, c])
+        k += 1
+    return k1
+'''
+    return "\n".join(imp) + "\n" + body
+
+
+def load_module(effects, actuator, controller):
+    """The compiled loop module for this combination (generated, written and imported once per process)."""
+    key = (tuple(effects), actuator, controller)
+    mod = _MODULES.get(key)
+    if mod is None:
+        src = generate_source(effects, actuator, controller)
+        h = hashlib.sha256((_source_digest() + src).encode()).hexdigest()[:20]
+        name = f"suspension_sim_loop_{h}"
+        path = _cache_dir() / f"{name}.py"
+        if not path.exists() or path.read_text() != src:
+            tmp = path.with_suffix(f".{os.getpid()}.tmp")
+            tmp.write_text(src)
+            os.replace(tmp, path)  # atomic: parallel workers may write the same file
+        spec = importlib.util.spec_from_file_location(name, path)
+        mod = importlib.util.module_from_spec(spec)
+        sys.modules[name] = mod
+        spec.loader.exec_module(mod)
+        _MODULES[key] = mod
+    return mod
+
+
+def _i64(a):
+    return np.ascontiguousarray(np.asarray(a, dtype=np.int64))
+
+
+def _f64(a):
+    return np.ascontiguousarray(np.asarray(a, dtype=np.float64))
+
+
+class _Layout:
+    """Log channel names in the order of results.Logger, and the column tables the kernel writes through."""
+
+    def __init__(self, sim):
+        from ..results import BODY_NAMES
+
+        P = sim.plant
+        self.names: list[str] = []
+        nb, nc = len(P.body_joints), P.nc
+        self.LC = np.full((len(LOG_ROWS), max(nb, nc)), -1, dtype=np.int64)
+        self.sfx = P.suffixes
+        self._body = [BODY_NAMES.get(jn, (jn, f"{jn}_vel", f"{jn}_acc")) for jn in P.body_joints]
+        for k, (pn, vn, _) in enumerate(self._body):
+            self.LC[0, k] = self._add(pn)
+            self.LC[1, k] = self._add(vn)
+        self._corner("travel", 3)
+        self._corner("travel_rate", 4)
+        if P.has_tire:
+            self._corner("wheel_z", 5)
+            self._corner("wheel_vel", 6)
+            self._corner("tire_force", 7)
+            self._corner("tire_effect_force", 8)
+        for base, row in (("road", 9), ("road_vel", 10), ("command", 11), ("actuator_force", 12),
+                          ("effect_force", 13)):
+            self._corner(base, row)
+
+    def _add(self, name):
+        self.names.append(name)
+        return len(self.names) - 1
+
+    def _corner(self, base, row):
+        for c, s in enumerate(self.sfx):
+            self.LC[row, c] = self._add(f"{base}{s}")
+
+    def add_rest(self, sim, act_names, reading_widths, ctrl_widths, eff_sigs):
+        """Actuator states, sensor readings, controller and effect signals, then the accelerations."""
+        P = sim.plant
+        nc = P.nc
+        self.lc_act = np.array([[self._add(f"act.{nm}{s}") for s in self.sfx] for nm in act_names],
+                               dtype=np.int64).reshape(len(act_names), nc)
+        cols = []
+        for name, width in reading_widths:
+            labels = sim.cctx.sensors.get(name) or [str(i) for i in range(width)]
+            for c in range(width):
+                lab = labels[c] if c < len(labels) else str(c)
+                cols.append(self._add(f"sensor.{name}.{lab}" if lab else f"sensor.{name}"))
+        self.lc_y = np.array(cols, dtype=np.int64)
+        cols = []
+        for name, width in ctrl_widths:
+            cols += [self._add(f"ctrl.{name}")] if width == 1 else [self._add(f"ctrl.{name}.{c}") for c in range(width)]
+        self.lc_ctrl = np.array(cols, dtype=np.int64)
+        self.eff_lc = []
+        for eff_name, sig_names, n_sel in eff_sigs:
+            self.eff_lc.append(np.array([[self._add(f"effect.{eff_name}.{nm}.{c}") for c in range(n_sel)]
+                                         for nm in sig_names], dtype=np.int64).reshape(len(sig_names), n_sel))
+        for k, (_, _, an) in enumerate(self._body):
+            self.LC[2, k] = self._add(an)
+        if P.has_tire:
+            self._corner("wheel_acc", 14)
+
+
+def run(sim, mode: str, progress=None) -> list:
+    """Run ``sim`` with the compiled loop (``mode`` from :func:`plan`); the Results of the Python loop."""
+    from ..errors import SimulationDiverged
+    from ..results import Logger, Result
+    from ..sensors.base import PlantState  # noqa: F401  (documented type of sim.state)
+
+    P = sim.plant
+    m, d = P.model, P.data
+    n, nc = P.n, P.nc
+    full = mode == "full"
+    mujoco.mj_resetData(m, d)
+    sim._build_corner_jacobian()
+    sim.actuator.reset()
+    sim.controller.reset()
+    for e, _ in sim.effects:
+        e.reset()
+    for ch in sim.sensors:
+        ch.reset()
+
+    # component data ----------------------------------------------------------------------------------
+    effects, eff_args, eff_sigs = [], [], []
+    for eff, sel in sim.effects:
+        fn = type(eff).kernel
+        mod, name = _kernel_ref(fn)
+        effects.append((mod, name, eff.target))
+        p, st = eff.kernel_data()
+        cmap = np.full(nc, -1, dtype=np.int64)
+        cmap[np.asarray(sel)] = np.arange(len(sel))
+        sig = eff.kernel_signals()
+        names = [nm for nm in eff.signals() if nm in sig]
+        eff_args.append([_f64(p), _f64(st), cmap, np.array([sig[nm] for nm in names], dtype=np.int64)])
+        eff_sigs.append((eff.name, names, len(sel)))
+    act = sim.actuator
+    actuator = (_kernel_ref(type(act).kernel_force), _kernel_ref(type(act).kernel_advance))
+    a_p, a_st = (_f64(x) for x in act.kernel_data())
+    a_idx = act.kernel_states()
+    act_names = [nm for nm in act.states() if nm != "force"]
+    missing = [nm for nm in act_names if nm not in a_idx]
+    if missing:
+        raise RuntimeError(f"actuator {act.name!r}: kernel_states() lacks {missing}")
+    act_j = np.array([a_idx[nm] for nm in act_names], dtype=np.int64)
+
+    ctrl = sim.controller
+    controller = _kernel_ref(type(ctrl).kernel) if full else None
+    mod = load_module(effects, actuator, controller)
+
+    # sensors (compiled pipeline, full mode) ------------------------------------------------------------
+    ns = len(sim.sensors)
+    n_control = -(-sim.n_steps // sim.sub)
+    sens = dict(field=np.zeros(ns, np.int64), aux=np.zeros(ns, np.int64), off=np.zeros(ns, np.int64),
+                k=np.zeros(ns, np.int64), delay=np.zeros(ns, np.int64), hold=np.ones(ns, np.int64),
+                bias=np.zeros(ns), std=np.zeros(ns), q=np.zeros(ns), noise_off=np.zeros(ns, np.int64))
+    reading_widths = []
+    if full:
+        cols_list, off, noff, draws = [], 0, 0, []
+        for s_i, ch in enumerate(sim.sensors):
+            fld, cols = ch.sensor.kernel_field()
+            cols = list(cols)
+            aux = 0
+            if fld == "actuator_state":
+                sname = ch.sensor.p.state
+                if sname == "force":
+                    fld = "actuator_force"
+                elif sname in a_idx:
+                    aux = a_idx[sname]
+                else:
+                    ch.sensor.read(sim._state(0.0, np.zeros((n, nc)), np.zeros((n, nc)), np.zeros(m.nv),
+                                              np.zeros((n, nc)), np.zeros((n, nc))))  # raises the user error
+                    raise RuntimeError(f"actuator state {sname!r} has no kernel index")
+            kk = len(cols)
+            sens["field"][s_i], sens["aux"][s_i], sens["off"][s_i], sens["k"][s_i] = FIELDS.index(fld), aux, off, kk
+            sens["delay"][s_i], sens["hold"][s_i] = ch.delay_steps, ch.hold_steps
+            sens["bias"][s_i], sens["std"][s_i], sens["q"][s_i] = ch.cfg.bias, ch.cfg.noise_std, ch.cfg.quantization
+            cols_list.append(cols)
+            reading_widths.append((ch.name, kk))
+            if ch.cfg.noise_std > 0:
+                nd = -(-n_control // ch.hold_steps)
+                z = np.stack([np.asarray(ch.rng.normal(0.0, ch.cfg.noise_std, size=(n, kk)), dtype=float)
+                              for _ in range(nd)], axis=1)  # the Python loop's draws, in its order
+                sens["noise_off"][s_i] = noff
+                draws.append(z.reshape(n, -1))
+                noff += nd * kk
+            off += kk
+        maxk = max([len(c) for c in cols_list] + [1])
+        sens_cols = np.zeros((ns, maxk), np.int64)
+        for s_i, c in enumerate(cols_list):
+            sens_cols[s_i, :len(c)] = c
+        noise = _f64(np.concatenate(draws, axis=1)) if draws else np.zeros((n, 1))
+        ytot = off
+        maxd = int(sens["delay"].max()) if ns else 0
+        ring = np.zeros((n, max(ns, 1), maxd + 1, maxk))
+        c_p, c_st = (_f64(x) for x in ctrl.kernel_data())
+        csig = ctrl.kernel_signals()
+        ctrl_widths = [(nm, b - a) for nm, (a, b) in csig.items()]
+        ctrl_j = np.array([j for a, b in csig.values() for j in range(a, b)], dtype=np.int64)
+    else:
+        sens_cols, noise, ring, ytot = np.zeros((ns, 1), np.int64), np.zeros((n, 1)), np.zeros((n, 1, 1, 1)), 0
+        c_p, c_st, ctrl_widths, ctrl_j = np.zeros((n, 1)), np.zeros((n, 0)), [], np.zeros(0, np.int64)
+
+    n_log = sim.n_steps // sim.log_every
+    layout = _Layout(sim)
+    y = np.zeros((n, max(ytot, 1)))
+
+    def make_log():
+        layout.add_rest(sim, act_names, reading_widths, ctrl_widths, eff_sigs)
+        # (car, log step, channel): each log step writes one contiguous row per car; every entry is written
+        L = np.empty((n, n_log, len(layout.names)))
+        eff_full = []
+        for args, lc in zip(eff_args, layout.eff_lc):
+            eff_full += args + [lc]
+        return L, eff_full
+
+    if full:
+        L, eff_full = make_log()
+    else:  # the layout needs the first readings and controller signals: built at the first control instant
+        L = np.zeros((n, 0, 0))
+        eff_full = []
+        for args in eff_args:
+            eff_full += args + [np.zeros((len(args[3]), int(args[2].max()) + 1 if args[2].size else 0), np.int64)]
+        layout.lc_act = np.zeros((0, nc), np.int64)
+        layout.lc_y = layout.lc_ctrl = np.zeros(0, np.int64)
+
+    # plant arrays ------------------------------------------------------------------------------------
+    dummy = np.zeros((n, nc), dtype=np.int64)
+    tire_t = _i64(P.tire_t) if P.has_tire else dummy
+    eff_t = _i64(P.eff_t) if P.has_tire else dummy
+    kt, ct = _f64(sim.kt), _f64(sim.ct)
+    Jb = _f64(sim._Jb)
+    cmd, F_act, F_eff, F_teff = (np.zeros((n, nc)) for _ in range(4))
+    acc, v_before = np.zeros(m.nv), np.zeros(m.nv)
+    sv = np.zeros((n, nc, 2))
+    kc_arr = np.zeros(1, np.int64)
+    warn = d.warning.number
+    warn_idx = np.array([int(w) for w in _BAD_WARNINGS], dtype=np.int64)
+    sc0 = sim.scenarios[0].sim
+    has_tire_eff = any(e.target == "tire" for e, _ in sim.effects)
+    if has_tire_eff and not P.has_tire:  # pragma: no cover - refused when the Simulation is built
+        raise RuntimeError("tire effect without a tire")
+    fixed = (m._address, d._address, d.qpos, d.qvel, d.ctrl, d.ten_length, d.ten_velocity, warn, warn_idx,
+             _i64(P.road_q), _i64(P.road_v), _i64(P.road_servo), _i64(P.susp_t), tire_t, _i64(P.eff_s), eff_t,
+             _i64(P.act), _i64(P.wheel_q), _i64(P.wheel_v), _i64(P.body_q), _i64(P.body_v),
+             _i64(P.free_q), _i64(P.free_v), bool(P.has_tire), bool(sim.effects), bool(has_tire_eff), kt, ct, Jb)
+
+    def call(road_z, road_zd, k_chunk0, k, k1, resume):
+        return mod.loop(*fixed, road_z, road_zd, k_chunk0, k, k1, resume, full, sim.n_steps, sim.sub,
+                        sim.log_every, sim.dt, float(sc0.max_displacement), float(sc0.max_velocity),
+                        cmd, F_act, F_eff, F_teff, acc, v_before, sv, a_p, a_st,
+                        sens["field"], sens_cols, sens["aux"], sens["off"], sens["k"], sens["delay"],
+                        sens["hold"], sens["bias"], sens["std"], sens["q"], noise, sens["noise_off"], ring, y,
+                        kc_arr, c_p, c_st, L, layout.LC, layout.lc_act, act_j, layout.lc_y, layout.lc_ctrl,
+                        ctrl_j, *eff_full)
+
+    logger = Logger(sim, n_log=n_log)
+    logger.t[:] = (np.arange(n_log) * sim.log_every) * sim.dt
+
+    def attach_log():
+        logger.ch = {name: L[:, :, j] for j, name in enumerate(layout.names)}
+
+    if full:
+        attach_log()
+    chunk = max(sim.sub, 2000 // sim.sub * sim.sub)
+    wall0 = _time.perf_counter()
+    hooks = list(sim.log_hooks)
+    for k_chunk0 in range(0, sim.n_steps, chunk):
+        k1 = min(k_chunk0 + chunk, sim.n_steps)
+        road_z, road_zd = (_f64(a) for a in sim._road_chunk(k_chunk0, k1))
+        k, resume = k_chunk0, 0
+        while True:
+            r = call(road_z, road_zd, k_chunk0, k, k1, resume)
+            if r == k1:
+                break
+            if r < 0:
+                kd = -r - 1
+                sim._last_forces = (F_act, F_eff, F_teff)
+                sim._check(kd * sim.dt, d)  # raises with the state and a hint
+                raise SimulationDiverged(kd * sim.dt, {}, "the compiled loop's state check failed")
+            # hybrid: a control instant handled in Python, exactly as Simulation._steps does
+            k, resume = r, 1
+            t = k * sim.dt
+            jr = k - k_chunk0
+            sim._last_forces = (F_act.copy(), F_eff.copy(), F_teff.copy())
+            state = sim._state(t, road_z[:, jr, :], road_zd[:, jr, :], acc, F_act.copy(), F_teff.copy())
+            states = {nm: a_st[:, :, a_idx[nm]].copy() for nm in act_names}
+            states["force"] = F_act.copy()
+            state.actuator_states = states
+            readings = {ch.name: ch.sample(state) for ch in sim.sensors}
+            if sim.full_state:
+                from ..simulation import _full_state
+
+                readings.update(_full_state(state))
+            sim.t, sim.state = t, state
+            command = np.asarray(ctrl.step(t, readings), dtype=float)
+            if command.shape != (n, nc):
+                command = np.broadcast_to(command, (n, nc)).astype(float)
+            cmd[:] = command
+            sig = {nm: np.asarray(v, dtype=float).reshape(n, -1) for nm, v in ctrl.signals().items()}
+            rd = [(nm, np.asarray(v).reshape(n, -1)) for nm, v in readings.items() if not nm.startswith("state.")]
+            if L.shape[2] == 0:  # first control instant: now the log layout is known
+                reading_widths[:] = [(nm, v.shape[1]) for nm, v in rd]
+                ctrl_widths[:] = [(nm, v.shape[1]) for nm, v in sig.items()]
+                y = np.zeros((n, max(1, sum(w for _, w in reading_widths))))
+                c_st = np.zeros((n, max(1, sum(w for _, w in ctrl_widths))))
+                ctrl_j = np.arange(sum(w for _, w in ctrl_widths), dtype=np.int64)
+                L, eff_full = make_log()
+                attach_log()
+            q = 0
+            for nm, v in rd:
+                y[:, q:q + v.shape[1]] = v
+                q += v.shape[1]
+            q = 0
+            for nm, w in ctrl_widths:
+                if nm in sig and sig[nm].shape[1] == w:
+                    c_st[:, q:q + w] = sig[nm]
+                else:
+                    c_st[:, q:q + w] = np.nan
+                q += w
+        if hooks:
+            for j in range(-(-k_chunk0 // sim.log_every), min(-(-k1 // sim.log_every), n_log)):
+                for hook in hooks:
+                    hook(logger, j, j * sim.log_every * sim.dt)
+        if progress is not None:
+            progress(k1 / sim.n_steps)
+    if full:
+        ctrl.kernel_sync(c_st)
+    sim.end_forces = (acc, F_act, F_teff)
+    sim._check(sim.n_steps * sim.dt, d)
+    wall = _time.perf_counter() - wall0
+    return [Result.from_logger(logger, i, sim, wall) for i in range(n)]
