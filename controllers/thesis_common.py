@@ -321,10 +321,29 @@ class DiscreteMRAC:
 # test_kernels_thesis.py checks both rules against np.einsum on random data, so a numpy build that sums
 # differently is caught there.
 # ---------------------------------------------------------------------------------------------------------
-# numba's cache of a kernel is keyed by its own file and bytecode only: a kernel in a controller module that
-# inlines these helpers would be reused unchanged after an edit of this file.  The controllers build their
-# kernels as closures over KERNEL_STAMP (a hash of this file), which numba puts into the cache key.
-KERNEL_STAMP = int(hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:12], 16)
+# numba's on-disk cache of a kernel is keyed by its own file and bytecode only: a controller's kernel that
+# calls these helpers would be loaded unchanged after an edit of this file.  stamped_cache adds a hash of
+# this file to the key of a controller kernel's cache.
+KERNEL_STAMP = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
+
+
+def stamped_cache(dispatcher):
+    """Decorator (outside ``numba.njit(cache=True)``): key the function's on-disk cache also to this
+    file's source (KERNEL_STAMP), so that an edit here recompiles the kernels that inline its helpers.
+    Uses numba's FunctionCache._index_key; without it (another numba) the cache stays as numba makes it."""
+    try:
+        from numba.core.caching import FunctionCache
+    except ImportError:  # pragma: no cover
+        return dispatcher
+    if not isinstance(getattr(dispatcher, "_cache", None), FunctionCache) or not hasattr(FunctionCache, "_index_key"):
+        return dispatcher  # pragma: no cover
+
+    class _StampedCache(FunctionCache):
+        def _index_key(self, sig, codegen):
+            return (*super()._index_key(sig, codegen), KERNEL_STAMP)
+
+    dispatcher._cache = _StampedCache(dispatcher.py_func)
+    return dispatcher
 
 
 @numba.njit(cache=True)

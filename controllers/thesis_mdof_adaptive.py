@@ -44,7 +44,7 @@ from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
-from .thesis_common import FB_HEADER, KERNEL_STAMP, FilterBank, KernelLayout, _f, fb_update, fb_y, k_dot
+from .thesis_common import FB_HEADER, FilterBank, KernelLayout, _f, fb_update, fb_y, k_dot, stamped_cache
 
 
 class MDOFParams(Params):
@@ -83,86 +83,79 @@ _ST_XR, _ST_XA, _ST_ZMD, _ST_ZMDD, _ST_ED, _ST_TH, _ST_V, _ST_TOT, _ST_WDD, _ST_
 _ST_N = 28
 
 
-def _build_kernel(stamp):
-    @numba.njit(cache=True)
-    def _kernel(t, y, p, st, u):
-        if stamp < 0:  # never true: ties numba's cache key to thesis_common (see KERNEL_STAMP)
-            return
-        iz = int(p[0])
-        izd = int(p[1])
-        w = y[int(p[2])]
-        wd = y[int(p[3])]
-        h = p[4]
-        wdd = 0.0
-        if st[_ST_HAS] != 0.0:
-            wdd = (wd - st[_ST_WDP]) / h
-        st[_ST_WDP] = wd
-        st[_ST_HAS] = 1.0
-        st[_ST_WDD] = wdd
-        for o in range(4):
-            st[_ST_XR + o] = fb_y(p, st, _P_REF, 0, o)
+@stamped_cache
+@numba.njit(cache=True)
+def _kernel(t, y, p, st, u):
+    iz = int(p[0])
+    izd = int(p[1])
+    w = y[int(p[2])]
+    wd = y[int(p[3])]
+    h = p[4]
+    wdd = 0.0
+    if st[_ST_HAS] != 0.0:
+        wdd = (wd - st[_ST_WDP]) / h
+    st[_ST_WDP] = wd
+    st[_ST_HAS] = 1.0
+    st[_ST_WDD] = wdd
+    for o in range(4):
+        st[_ST_XR + o] = fb_y(p, st, _P_REF, 0, o)
+    for i in range(2):
+        st[_ST_XA + i] = k_dot(p, _P_AR + 4 * i, st, _ST_XR, 4) + p[_P_BR + i] * w
+    st[_ST_ZM] = st[_ST_XR] - st[_ST_XR + 1]
+    st[_ST_ZM + 1] = st[_ST_XR + 1] - w
+    st[_ST_ZMD] = st[_ST_XR + 2] - st[_ST_XR + 3]
+    st[_ST_ZMD + 1] = st[_ST_XR + 3] - wd
+    st[_ST_ZMDD] = st[_ST_XA] - st[_ST_XA + 1]
+    st[_ST_ZMDD + 1] = st[_ST_XA + 1] - wdd
+    for i in range(2):
+        st[_ST_E + i] = st[_ST_ZM + i] - y[iz + i]
+        st[_ST_ED + i] = st[_ST_ZMD + i] - y[izd + i]
+    for i in range(2):
+        st[_ST_TH + i] = ((st[_ST_E] * p[_P_R2 + 2 * i] + st[_ST_E + 1] * p[_P_R2 + 2 * i + 1])
+                          + (st[_ST_ED] * p[_P_R3 + 2 * i] + st[_ST_ED + 1] * p[_P_R3 + 2 * i + 1]))
+    st[_ST_ONE] = 1.0
+    a = p[5]
+    b = p[6]
+    sig = p[7]
+    nkeys = 7 if p[8] != 0.0 else 3
+    for kk in range(nkeys):
+        tb = _P_KEYS + 5 * kk
+        nk = int(p[tb])
+        pb = int(p[tb + 1])
+        io = int(p[tb + 2])
+        go = int(p[tb + 3])
+        ro = int(p[tb + 4])
+        vs = p[pb]
+        for j in range(nk):
+            st[_ST_V + j] = st[ro + j] / vs
+        nrm = 1.0 + k_dot(st, _ST_V, st, _ST_V, nk)
         for i in range(2):
-            st[_ST_XA + i] = k_dot(p, _P_AR + 4 * i, st, _ST_XR, 4) + p[_P_BR + i] * w
-        st[_ST_ZM] = st[_ST_XR] - st[_ST_XR + 1]
-        st[_ST_ZM + 1] = st[_ST_XR + 1] - w
-        st[_ST_ZMD] = st[_ST_XR + 2] - st[_ST_XR + 3]
-        st[_ST_ZMD + 1] = st[_ST_XR + 3] - wd
-        st[_ST_ZMDD] = st[_ST_XA] - st[_ST_XA + 1]
-        st[_ST_ZMDD + 1] = st[_ST_XA + 1] - wdd
-        for i in range(2):
-            st[_ST_E + i] = st[_ST_ZM + i] - y[iz + i]
-            st[_ST_ED + i] = st[_ST_ZMD + i] - y[izd + i]
-        for i in range(2):
-            st[_ST_TH + i] = ((st[_ST_E] * p[_P_R2 + 2 * i] + st[_ST_E + 1] * p[_P_R2 + 2 * i + 1])
-                              + (st[_ST_ED] * p[_P_R3 + 2 * i] + st[_ST_ED + 1] * p[_P_R3 + 2 * i + 1]))
-        st[_ST_ONE] = 1.0
-        a = p[5]
-        b = p[6]
-        sig = p[7]
-        nkeys = 7 if p[8] != 0.0 else 3
-        for kk in range(nkeys):
-            tb = _P_KEYS + 5 * kk
-            nk = int(p[tb])
-            pb = int(p[tb + 1])
-            io = int(p[tb + 2])
-            go = int(p[tb + 3])
-            ro = int(p[tb + 4])
-            vs = p[pb]
             for j in range(nk):
-                st[_ST_V + j] = st[ro + j] / vs
-            nrm = 1.0 + k_dot(st, _ST_V, st, _ST_V, nk)
-            for i in range(2):
-                for j in range(nk):
-                    e = i * nk + j
-                    outer = st[_ST_TH + i] * st[_ST_V + j] * p[pb + 1 + 2 * nk + e] / nrm
-                    lim = p[pb + 1 + 4 * nk + e]
-                    ie = st[io + e] + (a * h * outer - sig * h * st[io + e])
-                    ie = min(max(ie, -lim), lim)
-                    st[io + e] = ie
-                    st[go + e] = p[pb + 1 + e] + ie + min(max(b * outer, -lim), lim)
-        # tot = U_ax + M0 Z̈_m + C0 Ż_m + K0 Z_m + D0 ẅ + K_p E + K_v Ė (the table's G offsets, _KEYS order)
-        gkp = int(p[_P_KEYS + 3])
-        gkv = int(p[_P_KEYS + 5 + 3])
-        gua = int(p[_P_KEYS + 10 + 3])
-        gm0 = int(p[_P_KEYS + 15 + 3])
-        gc0 = int(p[_P_KEYS + 20 + 3])
-        gk0 = int(p[_P_KEYS + 25 + 3])
-        gd0 = int(p[_P_KEYS + 30 + 3])
-        for i in range(2):
-            st[_ST_TOT + i] = (st[gua + i] + k_dot(st, gm0 + 2 * i, st, _ST_ZMDD, 2)
-                               + k_dot(st, gc0 + 2 * i, st, _ST_ZMD, 2) + k_dot(st, gk0 + 2 * i, st, _ST_ZM, 2)
-                               + st[gd0 + i] * wdd + k_dot(st, gkp + 2 * i, st, _ST_E, 2)
-                               + k_dot(st, gkv + 2 * i, st, _ST_ED, 2))
-        for i in range(2):
-            u[i] = st[_ST_TOT] * p[_P_PI + 2 * i] + st[_ST_TOT + 1] * p[_P_PI + 2 * i + 1]
-        fb_update(p, st, _P_REF, 0, y, int(p[2]))
-        st[_ST_RA] = st[_ST_XA]
-        st[_ST_RX] = st[_ST_XR]
-
-    return _kernel
-
-
-_kernel = _build_kernel(KERNEL_STAMP)
+                e = i * nk + j
+                outer = st[_ST_TH + i] * st[_ST_V + j] * p[pb + 1 + 2 * nk + e] / nrm
+                lim = p[pb + 1 + 4 * nk + e]
+                ie = st[io + e] + (a * h * outer - sig * h * st[io + e])
+                ie = min(max(ie, -lim), lim)
+                st[io + e] = ie
+                st[go + e] = p[pb + 1 + e] + ie + min(max(b * outer, -lim), lim)
+    # tot = U_ax + M0 Z̈_m + C0 Ż_m + K0 Z_m + D0 ẅ + K_p E + K_v Ė (the table's G offsets, _KEYS order)
+    gkp = int(p[_P_KEYS + 3])
+    gkv = int(p[_P_KEYS + 5 + 3])
+    gua = int(p[_P_KEYS + 10 + 3])
+    gm0 = int(p[_P_KEYS + 15 + 3])
+    gc0 = int(p[_P_KEYS + 20 + 3])
+    gk0 = int(p[_P_KEYS + 25 + 3])
+    gd0 = int(p[_P_KEYS + 30 + 3])
+    for i in range(2):
+        st[_ST_TOT + i] = (st[gua + i] + k_dot(st, gm0 + 2 * i, st, _ST_ZMDD, 2)
+                           + k_dot(st, gc0 + 2 * i, st, _ST_ZMD, 2) + k_dot(st, gk0 + 2 * i, st, _ST_ZM, 2)
+                           + st[gd0 + i] * wdd + k_dot(st, gkp + 2 * i, st, _ST_E, 2)
+                           + k_dot(st, gkv + 2 * i, st, _ST_ED, 2))
+    for i in range(2):
+        u[i] = st[_ST_TOT] * p[_P_PI + 2 * i] + st[_ST_TOT + 1] * p[_P_PI + 2 * i + 1]
+    fb_update(p, st, _P_REF, 0, y, int(p[2]))
+    st[_ST_RA] = st[_ST_XA]
+    st[_ST_RX] = st[_ST_XR]
 
 
 @CONTROLLERS.register("thesis_mdof_adaptive")

@@ -51,9 +51,8 @@ from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
-from .thesis_common import (DM_HEADER, FB_HEADER, KERNEL_STAMP, DiscreteMRAC, FilterBank, KernelLayout, _f, am_poly,
-                            darma, dm_step, dm_theta_strides, fb_update, fb_y, k_dot, predictor,
-                            theta_from_predictor)
+from .thesis_common import (DM_HEADER, FB_HEADER, DiscreteMRAC, FilterBank, KernelLayout, _f, am_poly, darma, dm_step,
+                            dm_theta_strides, fb_update, fb_y, k_dot, predictor, stamped_cache, theta_from_predictor)
 
 
 class MIMOParams(Params):
@@ -93,57 +92,50 @@ _PA4, _PB4 = _PS + 12, _PS + 20
 _ST_RZ, _ST_RP, _ST_RA, _ST_E, _ST_BIAS, _ST_WIN, _ST_Y, _ST_YB, _ST_R, _ST_TH = 0, 1, 2, 3, 5, 7, 11, 13, 15, 23
 
 
-def _build_kernel(stamp):
-    @numba.njit(cache=True)
-    def _kernel(t, y, p, st, u):
-        if stamp < 0:  # never true: ties numba's cache key to thesis_common (see KERNEL_STAMP)
-            return
-        ib = int(p[_PS])
-        iw = int(p[_PS + 1])
-        iwd = int(p[_PS + 2])
-        D = int(p[_PS + 3])
-        nt = int(p[_PS + 4])
-        TG = int(p[_PS + 5])
+@stamped_cache
+@numba.njit(cache=True)
+def _kernel(t, y, p, st, u):
+    ib = int(p[_PS])
+    iw = int(p[_PS + 1])
+    iwd = int(p[_PS + 2])
+    D = int(p[_PS + 3])
+    nt = int(p[_PS + 4])
+    TG = int(p[_PS + 5])
+    for c in range(2):
+        st[_ST_Y + c] = y[ib + c]
+        st[_ST_WIN + c] = y[iw + c]
+        st[_ST_WIN + 2 + c] = y[iwd + c]
+    for o in range(8):
+        st[_ST_R + o] = fb_y(p, st, _HREF, 0, o)
+    fb_update(p, st, _HREF, 0, st, _ST_WIN)
+    for k in range(nt - 1, 0, -1):
         for c in range(2):
-            st[_ST_Y + c] = y[ib + c]
-            st[_ST_WIN + c] = y[iw + c]
-            st[_ST_WIN + 2 + c] = y[iwd + c]
-        for o in range(8):
-            st[_ST_R + o] = fb_y(p, st, _HREF, 0, o)
-        fb_update(p, st, _HREF, 0, st, _ST_WIN)
-        for k in range(nt - 1, 0, -1):
-            for c in range(2):
-                st[TG + 2 * k + c] = st[TG + 2 * (k - 1) + c]
+            st[TG + 2 * k + c] = st[TG + 2 * (k - 1) + c]
+    for c in range(2):
+        st[TG + c] = fb_y(p, st, _HREF, 0, c)
+    for c in range(2):
+        st[_ST_YB + c] = p[_PS + 6] * st[TG + c] + p[_PS + 7] * st[TG + 2 + c] + p[_PS + 8] * st[TG + 4 + c]
+    dm_step(p, st, _HDM, st, _ST_Y, st, _ST_YB, True)
+    U = int(p[_HDM + 7])
+    for c in range(2):
+        ff = 0.0
+        if p[_PS + 11] != 0.0:
+            ff = p[_PS + 9] * st[_ST_WIN + c] + p[_PS + 10] * st[_ST_WIN + 2 + c]
+        u[c] = st[U + c] - ff
+    # signals
+    npar = int(p[_HDM + 2])
+    TH = int(p[_HDM + 4])
+    SC = int(p[_HDM + 11])
+    tj, tc = dm_theta_strides(p, _HDM)
+    for j in range(npar):
         for c in range(2):
-            st[TG + c] = fb_y(p, st, _HREF, 0, c)
-        for c in range(2):
-            st[_ST_YB + c] = p[_PS + 6] * st[TG + c] + p[_PS + 7] * st[TG + 2 + c] + p[_PS + 8] * st[TG + 4 + c]
-        dm_step(p, st, _HDM, st, _ST_Y, st, _ST_YB, True)
-        U = int(p[_HDM + 7])
-        for c in range(2):
-            ff = 0.0
-            if p[_PS + 11] != 0.0:
-                ff = p[_PS + 9] * st[_ST_WIN + c] + p[_PS + 10] * st[_ST_WIN + 2 + c]
-            u[c] = st[U + c] - ff
-        # signals
-        npar = int(p[_HDM + 2])
-        TH = int(p[_HDM + 4])
-        SC = int(p[_HDM + 11])
-        tj, tc = dm_theta_strides(p, _HDM)
-        for j in range(npar):
-            for c in range(2):
-                st[_ST_TH + 2 * j + c] = st[TH + j * tj + c * tc] * p[SC + j]
-        for c in range(2):
-            st[_ST_BIAS + c] = -st[_ST_TH + 2 * (npar - 3) + c]
-            st[_ST_E + c] = st[_ST_Y + c] - st[TG + 2 * D + c]
-        st[_ST_RZ] = st[_ST_R]
-        st[_ST_RP] = st[_ST_R + 1]
-        st[_ST_RA] = k_dot(p, _PA4, st, _ST_R, 8) + k_dot(p, _PB4, st, _ST_WIN, 4)
-
-    return _kernel
-
-
-_kernel = _build_kernel(KERNEL_STAMP)
+            st[_ST_TH + 2 * j + c] = st[TH + j * tj + c * tc] * p[SC + j]
+    for c in range(2):
+        st[_ST_BIAS + c] = -st[_ST_TH + 2 * (npar - 3) + c]
+        st[_ST_E + c] = st[_ST_Y + c] - st[TG + 2 * D + c]
+    st[_ST_RZ] = st[_ST_R]
+    st[_ST_RP] = st[_ST_R + 1]
+    st[_ST_RA] = k_dot(p, _PA4, st, _ST_R, 8) + k_dot(p, _PB4, st, _ST_WIN, 4)
 
 
 @CONTROLLERS.register("thesis_mimo_mrac")

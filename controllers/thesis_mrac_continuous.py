@@ -52,8 +52,7 @@ from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
-from .thesis_common import (FB_HEADER, KERNEL_STAMP, FilterBank, KernelLayout, _f, fb_update, fb_y, fb_yu,
-                            k_dot)
+from .thesis_common import FB_HEADER, FilterBank, KernelLayout, _f, fb_update, fb_y, fb_yu, k_dot, stamped_cache
 
 
 class MRACContinuousParams(Params):
@@ -99,78 +98,71 @@ def _den3(st, p):
     return acc
 
 
-def _build_kernel(stamp):
-    @numba.njit(cache=True)
-    def _kernel(t, y, p, st, u):
-        if stamp < 0:  # never true: ties numba's cache key to thesis_common (see KERNEL_STAMP)
-            return
-        x = y[int(p[_PS])]
-        xd = y[int(p[_PS + 1])]
-        w = y[int(p[_PS + 2])]
-        wd = y[int(p[_PS + 3])]
-        h = p[_PS + 4]
-        k_v = p[_PS + 5]
-        alpha = p[_PS + 6]
-        # regressor φ and P1·φ (as step: filter outputs before this step's update)
-        st[_ST_PHI] = fb_y(p, st, _HP, 0, 0)
-        st[_ST_PHI + 1] = fb_y(p, st, _HSP, 0, 0)
-        st[_ST_PHI + 2] = fb_y(p, st, _HP, 1, 0)
-        st[_ST_PHI + 3] = -fb_y(p, st, _HSP, 1, 0)
-        st[_ST_PHI + 4] = -fb_y(p, st, _HP, 2, 0)
-        st[_ST_PHI + 5] = fb_y(p, st, _HP, 3, 0)
-        st[_ST_U + 1] = x
-        st[_ST_U + 2] = w
-        st[_ST_U + 3] = 1.0
-        st[_ST_P1PHI] = fb_y(p, st, _HP2, 0, 0)
-        st[_ST_P1PHI + 1] = fb_yu(p, st, _HSP2, 0, 0, st, _ST_U + 1)
-        st[_ST_P1PHI + 2] = fb_y(p, st, _HP2, 1, 0)
-        st[_ST_P1PHI + 3] = -fb_yu(p, st, _HSP2, 1, 0, st, _ST_U + 2)
-        st[_ST_P1PHI + 4] = -fb_y(p, st, _HP2, 2, 0)
-        st[_ST_P1PHI + 5] = fb_y(p, st, _HP2, 3, 0)
-        xr0 = fb_y(p, st, _HREF, 0, 0)
-        xr1 = fb_y(p, st, _HREF, 0, 1)
-        e = x - xr0
-        st[_ST_E] = e
-        ef = fb_yu(p, st, _HEF, 0, 0, st, _ST_E)
-        ed = xd - xr1
-        FP1 = fb_y(p, st, _HP1, 0, 0)
-        b0 = st[_ST_B0]
-        eta = -(FP1 + k_dot(st, _ST_PHI, st, _ST_TH, 6))
-        eps = ef + b0 * eta + k_v * ed
-        # adaptation
-        den = alpha + _den3(st, p)
-        r = eps / den
-        for j in range(5):
-            st[_ST_TH + j] += h * p[_PG + j] * st[_ST_PHI + j] * r
-        if p[_PS + 8] != 0.0:
-            pd = st[_ST_PHI + 5]
-            st[_ST_TH + 5] += h * p[_PS + 7] * pd * eps / (alpha + pd * pd)
-        if p[_PS + 9] > 0.0:
-            epsh = ef + b0 * eta
-            b = b0 - h * p[_PS + 9] * eta * epsh / (1e-12 + eta * eta)
-            st[_ST_B0] = min(max(b, p[_PS + 10]), p[_PS + 11])
-        F = -k_dot(st, _ST_TH, st, _ST_P1PHI, 6)
-        u[0] = F - p[_PS + 13] * wd - p[_PS + 12] * w
-        # advance the filters with this step's inputs
-        st[_ST_U] = F
-        for c in range(4):
-            fb_update(p, st, _HP, c, st, _ST_U + c)
-            fb_update(p, st, _HP2, c, st, _ST_U + c)
-        for c in range(2):
-            fb_update(p, st, _HSP, c, st, _ST_U + 1 + c)
-            fb_update(p, st, _HSP2, c, st, _ST_U + 1 + c)
-        fb_update(p, st, _HP1, 0, st, _ST_U)
-        fb_update(p, st, _HREF, 0, st, _ST_U + 2)
-        fb_update(p, st, _HEF, 0, st, _ST_E)
-        st[_ST_F] = F
-        st[_ST_RX] = xr0
-        st[_ST_RA] = -p[_PS + 14] * xr1 - p[_PS + 15] * (xr0 - w)
-        st[_ST_RT] = xr0 - w
-
-    return _kernel
-
-
-_kernel = _build_kernel(KERNEL_STAMP)
+@stamped_cache
+@numba.njit(cache=True)
+def _kernel(t, y, p, st, u):
+    x = y[int(p[_PS])]
+    xd = y[int(p[_PS + 1])]
+    w = y[int(p[_PS + 2])]
+    wd = y[int(p[_PS + 3])]
+    h = p[_PS + 4]
+    k_v = p[_PS + 5]
+    alpha = p[_PS + 6]
+    # regressor φ and P1·φ (as step: filter outputs before this step's update)
+    st[_ST_PHI] = fb_y(p, st, _HP, 0, 0)
+    st[_ST_PHI + 1] = fb_y(p, st, _HSP, 0, 0)
+    st[_ST_PHI + 2] = fb_y(p, st, _HP, 1, 0)
+    st[_ST_PHI + 3] = -fb_y(p, st, _HSP, 1, 0)
+    st[_ST_PHI + 4] = -fb_y(p, st, _HP, 2, 0)
+    st[_ST_PHI + 5] = fb_y(p, st, _HP, 3, 0)
+    st[_ST_U + 1] = x
+    st[_ST_U + 2] = w
+    st[_ST_U + 3] = 1.0
+    st[_ST_P1PHI] = fb_y(p, st, _HP2, 0, 0)
+    st[_ST_P1PHI + 1] = fb_yu(p, st, _HSP2, 0, 0, st, _ST_U + 1)
+    st[_ST_P1PHI + 2] = fb_y(p, st, _HP2, 1, 0)
+    st[_ST_P1PHI + 3] = -fb_yu(p, st, _HSP2, 1, 0, st, _ST_U + 2)
+    st[_ST_P1PHI + 4] = -fb_y(p, st, _HP2, 2, 0)
+    st[_ST_P1PHI + 5] = fb_y(p, st, _HP2, 3, 0)
+    xr0 = fb_y(p, st, _HREF, 0, 0)
+    xr1 = fb_y(p, st, _HREF, 0, 1)
+    e = x - xr0
+    st[_ST_E] = e
+    ef = fb_yu(p, st, _HEF, 0, 0, st, _ST_E)
+    ed = xd - xr1
+    FP1 = fb_y(p, st, _HP1, 0, 0)
+    b0 = st[_ST_B0]
+    eta = -(FP1 + k_dot(st, _ST_PHI, st, _ST_TH, 6))
+    eps = ef + b0 * eta + k_v * ed
+    # adaptation
+    den = alpha + _den3(st, p)
+    r = eps / den
+    for j in range(5):
+        st[_ST_TH + j] += h * p[_PG + j] * st[_ST_PHI + j] * r
+    if p[_PS + 8] != 0.0:
+        pd = st[_ST_PHI + 5]
+        st[_ST_TH + 5] += h * p[_PS + 7] * pd * eps / (alpha + pd * pd)
+    if p[_PS + 9] > 0.0:
+        epsh = ef + b0 * eta
+        b = b0 - h * p[_PS + 9] * eta * epsh / (1e-12 + eta * eta)
+        st[_ST_B0] = min(max(b, p[_PS + 10]), p[_PS + 11])
+    F = -k_dot(st, _ST_TH, st, _ST_P1PHI, 6)
+    u[0] = F - p[_PS + 13] * wd - p[_PS + 12] * w
+    # advance the filters with this step's inputs
+    st[_ST_U] = F
+    for c in range(4):
+        fb_update(p, st, _HP, c, st, _ST_U + c)
+        fb_update(p, st, _HP2, c, st, _ST_U + c)
+    for c in range(2):
+        fb_update(p, st, _HSP, c, st, _ST_U + 1 + c)
+        fb_update(p, st, _HSP2, c, st, _ST_U + 1 + c)
+    fb_update(p, st, _HP1, 0, st, _ST_U)
+    fb_update(p, st, _HREF, 0, st, _ST_U + 2)
+    fb_update(p, st, _HEF, 0, st, _ST_E)
+    st[_ST_F] = F
+    st[_ST_RX] = xr0
+    st[_ST_RA] = -p[_PS + 14] * xr1 - p[_PS + 15] * (xr0 - w)
+    st[_ST_RT] = xr0 - w
 
 
 @CONTROLLERS.register("thesis_mrac_continuous")

@@ -44,8 +44,8 @@ from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
-from .thesis_common import (DM_HEADER, FB_HEADER, KERNEL_STAMP, DiscreteMRAC, FilterBank, KernelLayout, _f, am_poly,
-                            darma, dm_step, fb_update, fb_y, predictor, theta_from_predictor)
+from .thesis_common import (DM_HEADER, FB_HEADER, DiscreteMRAC, FilterBank, KernelLayout, _f, am_poly, darma, dm_step,
+                            fb_update, fb_y, predictor, stamped_cache, theta_from_predictor)
 
 
 class MRACDiscreteParams(Params):
@@ -76,55 +76,48 @@ _PS = FB_HEADER + DM_HEADER
 _ST_RX, _ST_RA, _ST_RT, _ST_E, _ST_PE, _ST_X, _ST_YB, _ST_W, _ST_TH = range(9)
 
 
-def _build_kernel(stamp):
-    @numba.njit(cache=True)
-    def _kernel(t, y, p, st, u):
-        if stamp < 0:  # never true: ties numba's cache key to thesis_common (see KERNEL_STAMP)
-            return
-        x = y[int(p[_PS])]
-        w = y[int(p[_PS + 1])]
-        wd = y[int(p[_PS + 2])]
-        D = int(p[_PS + 3])
-        nt = int(p[_PS + 4])
-        TG = int(p[_PS + 5])
-        r0 = fb_y(p, st, _HREF, 0, 0)
-        r1 = fb_y(p, st, _HREF, 0, 1)
-        st[_ST_W] = w
-        fb_update(p, st, _HREF, 0, st, _ST_W)
-        for k in range(nt - 1, 0, -1):
-            st[TG + k] = st[TG + k - 1]
-        st[TG] = fb_y(p, st, _HREF, 0, 0)
-        st[_ST_YB] = p[_PS + 6] * st[TG] + p[_PS + 7] * st[TG + 1] + p[_PS + 8] * st[TG + 2]
-        st[_ST_X] = x
-        dm_step(p, st, _HDM, st, _ST_X, st, _ST_YB, True)
-        U = int(p[_HDM + 7])
-        UT = st[U]
-        ff = 0.0
-        if p[_PS + 11] != 0.0:
-            ff = p[_PS + 9] * w + p[_PS + 10] * wd
-        umax = p[_PS + 12]
-        uc = min(max(UT - ff, -umax), umax)
-        st[U] = uc + ff
-        u[0] = uc
-        # signals
-        npar = int(p[_HDM + 2])
-        TH = int(p[_HDM + 4])
-        SC = int(p[_HDM + 11])
-        for j in range(npar):
-            st[_ST_TH + j] = st[TH + j] * p[SC + j]
-        Km = p[_PS + 13]
-        Mm = p[_PS + 14]
-        Cm = p[_PS + 15]
-        st[_ST_RX] = r0
-        st[_ST_RA] = (-Cm * r1 - Km * (r0 - w)) / Mm
-        st[_ST_RT] = r0 - w
-        st[_ST_E] = x - st[TG + D]
-        st[_ST_PE] = st[int(p[_HDM + 9])]
-
-    return _kernel
-
-
-_kernel = _build_kernel(KERNEL_STAMP)
+@stamped_cache
+@numba.njit(cache=True)
+def _kernel(t, y, p, st, u):
+    x = y[int(p[_PS])]
+    w = y[int(p[_PS + 1])]
+    wd = y[int(p[_PS + 2])]
+    D = int(p[_PS + 3])
+    nt = int(p[_PS + 4])
+    TG = int(p[_PS + 5])
+    r0 = fb_y(p, st, _HREF, 0, 0)
+    r1 = fb_y(p, st, _HREF, 0, 1)
+    st[_ST_W] = w
+    fb_update(p, st, _HREF, 0, st, _ST_W)
+    for k in range(nt - 1, 0, -1):
+        st[TG + k] = st[TG + k - 1]
+    st[TG] = fb_y(p, st, _HREF, 0, 0)
+    st[_ST_YB] = p[_PS + 6] * st[TG] + p[_PS + 7] * st[TG + 1] + p[_PS + 8] * st[TG + 2]
+    st[_ST_X] = x
+    dm_step(p, st, _HDM, st, _ST_X, st, _ST_YB, True)
+    U = int(p[_HDM + 7])
+    UT = st[U]
+    ff = 0.0
+    if p[_PS + 11] != 0.0:
+        ff = p[_PS + 9] * w + p[_PS + 10] * wd
+    umax = p[_PS + 12]
+    uc = min(max(UT - ff, -umax), umax)
+    st[U] = uc + ff
+    u[0] = uc
+    # signals
+    npar = int(p[_HDM + 2])
+    TH = int(p[_HDM + 4])
+    SC = int(p[_HDM + 11])
+    for j in range(npar):
+        st[_ST_TH + j] = st[TH + j] * p[SC + j]
+    Km = p[_PS + 13]
+    Mm = p[_PS + 14]
+    Cm = p[_PS + 15]
+    st[_ST_RX] = r0
+    st[_ST_RA] = (-Cm * r1 - Km * (r0 - w)) / Mm
+    st[_ST_RT] = r0 - w
+    st[_ST_E] = x - st[TG + D]
+    st[_ST_PE] = st[int(p[_HDM + 9])]
 
 
 @CONTROLLERS.register("thesis_mrac_discrete")

@@ -43,7 +43,7 @@ from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
-from .thesis_common import KERNEL_STAMP, KernelLayout, _f, k_dot
+from .thesis_common import KernelLayout, _f, k_dot, stamped_cache
 
 
 class ScheduleEntry(BaseModel):
@@ -93,44 +93,37 @@ _P_PER, _P_NS, _P_L, _P_PHI, _P_G0, _P_SCH = 3, 4, 5, 8, 17, 22
 _ST_G, _ST_WF, _ST_W, _ST_NEXT, _ST_X = 0, 5, 8, 11, 12
 
 
-def _build_kernel(stamp):
-    @numba.njit(cache=True)
-    def _kernel(t, y, p, st, u):
-        """W ← Wf Φᵀ is a BLAS product in step (an FMA chain or gemv, by build and size): summed here in
-        order without FMA, it can differ in the last bit (kernel_signals' w_est and the command within
-        ~1e-15 relative, tests/test_kernels_thesis.py)."""
-        if stamp < 0:  # never true: ties numba's cache key to thesis_common (see KERNEL_STAMP)
-            return
-        if t + 1e-9 >= st[_ST_NEXT]:
-            ns = int(p[_P_NS])
-            src = _P_G0
-            for e in range(ns):
-                if t >= p[_P_SCH + e]:
-                    src = _P_SCH + ns + 5 * e
-            for k in range(5):
-                st[_ST_G + k] = p[src + k]
-            st[_ST_NEXT] += p[_P_PER]
-        x = y[int(p[0])]
-        xd = y[int(p[1])]
-        w = y[int(p[2])]
-        innov = w - st[_ST_W]
+@stamped_cache
+@numba.njit(cache=True)
+def _kernel(t, y, p, st, u):
+    """W ← Wf Φᵀ is a BLAS product in step (an FMA chain or gemv, by build and size): summed here in
+    order without FMA, it can differ in the last bit (kernel_signals' w_est and the command within
+    ~1e-15 relative, tests/test_kernels_thesis.py)."""
+    if t + 1e-9 >= st[_ST_NEXT]:
+        ns = int(p[_P_NS])
+        src = _P_G0
+        for e in range(ns):
+            if t >= p[_P_SCH + e]:
+                src = _P_SCH + ns + 5 * e
+        for k in range(5):
+            st[_ST_G + k] = p[src + k]
+        st[_ST_NEXT] += p[_P_PER]
+    x = y[int(p[0])]
+    xd = y[int(p[1])]
+    w = y[int(p[2])]
+    innov = w - st[_ST_W]
+    for j in range(3):
+        st[_ST_WF + j] = st[_ST_W + j] + innov * p[_P_L + j]
+    st[_ST_X] = x
+    st[_ST_X + 1] = xd
+    for j in range(3):
+        st[_ST_X + 2 + j] = st[_ST_WF + j]
+    u[0] = -k_dot(st, _ST_G, st, _ST_X, 5)
+    for i in range(3):
+        acc = 0.0
         for j in range(3):
-            st[_ST_WF + j] = st[_ST_W + j] + innov * p[_P_L + j]
-        st[_ST_X] = x
-        st[_ST_X + 1] = xd
-        for j in range(3):
-            st[_ST_X + 2 + j] = st[_ST_WF + j]
-        u[0] = -k_dot(st, _ST_G, st, _ST_X, 5)
-        for i in range(3):
-            acc = 0.0
-            for j in range(3):
-                acc += st[_ST_WF + j] * p[_P_PHI + 3 * i + j]
-            st[_ST_W + i] = acc
-
-    return _kernel
-
-
-_kernel = _build_kernel(KERNEL_STAMP)
+            acc += st[_ST_WF + j] * p[_P_PHI + 3 * i + j]
+        st[_ST_W + i] = acc
 
 
 @CONTROLLERS.register("thesis_soc_lqg")
