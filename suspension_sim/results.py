@@ -105,12 +105,17 @@ class Logger:
         return _frame(["t", *self.ch], [self.t] + [arr[i] for arr in self.ch.values()])
 
 
-def _frame(names: list, arrs: list) -> pd.DataFrame:
+def _frame(names: list, arrs: list, shared: dict | None = None) -> pd.DataFrame:
     if all(a.dtype == np.float64 for a in arrs):
         # one float block: ~3x cheaper than a dict of columns (matters for batches of short runs)
         block = np.empty((len(arrs[0]), len(arrs)))
         for k, a in enumerate(arrs):
             block[:, k] = a
+        if shared is not None:  # the cars of an ensemble share one (immutable) column Index: 5x cheaper
+            columns = shared.get("columns")  # (one ensemble: one channel snapshot, the same names)
+            if columns is None:
+                columns = shared["columns"] = pd.Index(names)
+            return pd.DataFrame(block, columns=columns, copy=False)
         return pd.DataFrame(block, columns=names, copy=False)
     return pd.DataFrame(dict(zip(names, arrs)))
 
@@ -158,6 +163,7 @@ class Result:
         built on demand."""
         t = logger.t
         ch = dict(logger.ch)  # a snapshot of the channel dict (the arrays are shared, not copied)
+        shared: dict = {}  # what the cars' DataFrames can share (the column Index)
         infos = _infos(sim, wall)
         gaps = [inf["stop_gap"] for inf in infos]
         out = []
@@ -165,7 +171,7 @@ class Result:
             r = cls.__new__(cls)
             r.scenario = sim.scenarios[i]
             r.__dict__["_ts"] = None
-            r.__dict__["_src"] = (t, ch, i)
+            r.__dict__["_src"] = (t, ch, i, shared)
             r.info = info
             r.metrics = {}
             out.append(r)
@@ -182,7 +188,7 @@ class Result:
         src = self.__dict__.get("_src")
         if src is None or self.__dict__.get("_ts") is not None:
             return None
-        t, ch, i = src
+        t, ch, i, _ = src
         cols = {"t": t}
         cols.update((k, a[i]) for k, a in ch.items())
         return cols
@@ -212,8 +218,8 @@ def _ts_get(self) -> pd.DataFrame:
     if ts is None:
         src = d.get("_src")
         if src is not None:
-            t, ch, i = src
-            ts = d["_ts"] = _frame(["t", *ch], [t] + [arr[i] for arr in ch.values()])
+            t, ch, i, shared = src
+            ts = d["_ts"] = _frame(["t", *ch], [t] + [arr[i] for arr in ch.values()], shared)
             d["_src"] = None
     return ts
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import pickle
 
 import numpy as np
@@ -31,10 +32,20 @@ def assert_same_metrics(new: dict, ref: dict):
 
 
 def _run(scs):
-    sim = Simulation(scs)
+    sim = Simulation(list(scs))
     grab = {}
     sim.log_hooks.append(lambda logger, j, t: grab.setdefault("logger", logger))
-    res = sim.run()
+    old = os.environ.get("SUSPENSION_SIM_COMPILED")
+    if isinstance(scs, _PythonLoop):
+        os.environ["SUSPENSION_SIM_COMPILED"] = "0"
+    try:
+        res = sim.run()
+    finally:
+        if isinstance(scs, _PythonLoop):
+            os.environ.pop("SUSPENSION_SIM_COMPILED") if old is None else os.environ.update(SUSPENSION_SIM_COMPILED=old)
+    if isinstance(scs, _PythonLoop):
+        assert getattr(sim, "loop", "python") == "python"
+        assert all(a.flags.c_contiguous for a in grab["logger"].ch.values())
     return sim, grab["logger"], res
 
 
@@ -84,8 +95,13 @@ def _sdof(n=2):  # one mass: no wheel, no tire -> the tire and wheel metrics dro
         "sim": {"duration": 0.6, "dt": 0.0005, "control_dt": 0.001, "log_dt": 0.001}}) for i in range(n)]
 
 
+class _PythonLoop(list):
+    """Scenarios to run with the Python loop (contiguous per-channel logs) instead of the compiled one."""
+
+
 CASES = {
     "quarter": lambda: _quarter(),
+    "quarter_python_loop": lambda: _PythonLoop(_quarter(n=3, duration=1.1)),
     "quarter_500Hz_log": lambda: _quarter(n=3, log_dt=0.002),
     "quarter_short": lambda: _quarter(n=3, duration=0.4),  # shorter than the 1 s MTVV window
     "half": _half,
@@ -156,6 +172,12 @@ def test_lazy_timeseries_behaves_like_a_field():
     assert v.columns is not None and np.array_equal(v.col("travel"), logger.ch["travel"][0])
     assert v.ts.equals(logger.frame(0))
     assert res[0].__dict__["_ts"] is None
+    # the cars' DataFrames share their (immutable) column Index; renaming one leaves the other alone
+    fresh = Result.many_from_logger(logger, sim, res[0].info["wall_time_s"] * 2)
+    a, b = fresh[0].ts, fresh[1].ts
+    assert a.columns is b.columns
+    a.columns = [f"x{k}" for k in range(a.shape[1])]
+    assert list(b.columns) == list(logger.frame(1).columns) and b.equals(logger.frame(1))
     plain = Result(scenario=None, timeseries=df, info={"suffixes": [""]})
     assert plain.ts is df and plain.metrics == {}
 
