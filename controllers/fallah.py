@@ -62,6 +62,11 @@ State estimation (Section 4), from the sensors only:
 Signals logged (``ctrl.<name>.<corner index>``): the estimates ``zs_hat``, ``vs_hat``, ``dv_hat``
 (Δ̇ estimate) and the switching function ``s``; the truth is in the run log (``body_z``, ``pitch``, ``roll``
 and their rates, ``travel_rate``).
+
+Compiled kernel (``_kernel``, see :mod:`suspension_sim.compiled`): the estimation and the law of ``step`` for
+one car; the integrators and moving means are bit-identical, the differentiator (numpy: tensordot = BLAS),
+the switching function (einsum) and the sigmoid's exp may differ from numpy's in the last bit
+(tests/test_kernels_controllers.py).
 """
 from __future__ import annotations
 

@@ -59,6 +59,9 @@ K_pf < (1 + e^(−Tc/ε))/(1 − e^(−Tc/ε)), 59 at Tc = 0.1 ms, 12 at 0.5 ms)
 parameter, normalised: ``d(θ̂_i/θ_i0)/dt = −gain_i·(θ_i0·Y_i)·p_e``, θ_i0 the Table 1 value, gain in 1/N²;
 with θ2·Y2 ~ 1e6 N/s the (p_e, θ̃) loop then has its slow pole near gain·(θ_i0·Y_i)²/α1), the initial
 estimates (Table 1 by default: the paper's simulations give no initial error) and the ĝ floor.
+
+Compiled kernel (``_kernel``, see :mod:`suspension_sim.compiled`): ``step`` for one car with the same
+floating-point operations in the same order, bit-identical (tests/test_kernels_controllers.py).
 """
 from __future__ import annotations
 

@@ -66,6 +66,11 @@ restores θ̂/γ̂ = θ/γ).  Along a trajectory, (16) and (22) hold to the samp
 
 Variants (Figs. 4–5): ``adaptive: false`` keeps θ̂ at its initial value (non-adaptive); "known parameters" is
 a scenario whose nominal values equal the plant's.  θ̂(0) = (nominal α)·(nominal A), as in the paper.
+
+Compiled kernel (``_kernel``, see :mod:`suspension_sim.compiled`): the derivation's lambdified code is copied
+into this file as a numba function (``kernel_source()``; a test checks the copy is current), with powers
+evaluated as the reference does.  Bit-identical to ``step`` while |η| <= m1; beyond, numpy's exp and pow
+and the C library's differ in the last bit, which the ill-conditioned law amplifies (see the tests).
 """
 from __future__ import annotations
 

@@ -35,6 +35,10 @@ M defaults to the corner's static load / g.
 Sensors: ``travel`` (Δx = −travel), ``travel_rate`` (Δv = −rate) and the body velocity above the corner
 (``corner_body_vel``), as the paper's state feedback assumes.  Signals: ``fk_hat``, ``fb_hat`` (the
 estimated stiffness and damping at the current Δx, Δv), ``v_err`` (ṽ), ``beta_k.i``, ``beta_b.i``.
+
+Compiled kernel (``_kernel``, see :mod:`suspension_sim.compiled`): bit-identical to ``step`` for the
+triangular bases (numpy's pairwise summation is reproduced); with gaussian memberships numpy's exp and the C
+library's may differ in the last bit (tests/test_kernels_controllers.py).
 """
 from __future__ import annotations
 
