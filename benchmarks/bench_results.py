@@ -40,11 +40,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 
-import legacy_results as L  # noqa: E402  (the old per-car path, verbatim)
+import legacy_results as L  # the old per-car path, verbatim
 
-from suspension_sim.config import parse_scenario  # noqa: E402
-from suspension_sim.results import Result  # noqa: E402
-from suspension_sim.simulation import Simulation  # noqa: E402
+from suspension_sim.config import parse_scenario
+from suspension_sim.results import Result
+from suspension_sim.simulation import Simulation
 
 
 def quarter(n, duration):

@@ -10,7 +10,6 @@ import os
 import pickle
 
 import numpy as np
-import pandas as pd
 import pytest
 
 import legacy_results as L
