@@ -27,8 +27,8 @@ the front of a half car).  ``fade_in`` (s) ramps the signal in with a half cosin
 random signals are the same on every corner unless ``independent: true``.  The command's unit is the
 actuator's (N for a force actuator).
 
-All signals but ``random`` (drawn lazily from numpy Generators) and multisines of more than 128 lines have
-a compiled kernel (``_kernel``, see :mod:`suspension_sim.compiled`) that reproduces ``step``.
+All signals but ``random`` (drawn lazily from numpy Generators: its controller is an ``_OpenLoopRandom``,
+without kernel) have a compiled kernel (``_kernel``, see :mod:`suspension_sim.compiled`) that reproduces ``step``.
 """
 from __future__ import annotations
 
@@ -150,10 +150,8 @@ _HEADER = 16
 
 
 @numba.njit(cache=True)
-def _pairwise_sum(a, lo, n):
-    """numpy's pairwise summation of a[lo:lo+n] (np.sum along a contiguous axis) for n <= 128, the same
-    additions in the same order (numpy splits longer sums in halves; not needed here, and a recursive
-    function does not survive numba's cache)."""
+def _pairwise_block(a, lo, n):
+    """numpy's pairwise summation of a[lo:lo+n] for n <= 128 (8 accumulators), same additions, same order."""
     if n < 8:
         res = -0.0
         for i in range(n):
@@ -177,6 +175,43 @@ def _pairwise_sum(a, lo, n):
         res += a[lo + i]
         i += 1
     return res
+
+
+@numba.njit(cache=True)
+def _pairwise_sum(a, lo, n):
+    """numpy's pairwise summation of a[lo:lo+n] (np.sum along a contiguous axis): blocks of <= 128 summed
+    by _pairwise_block, longer runs split in halves (multiples of 8) as numpy does; numpy's recursion is
+    unrolled on an explicit stack (a recursive function does not survive numba's cache)."""
+    if n <= 128:
+        return _pairwise_block(a, lo, n)
+    s_lo = np.empty(64, np.int64)
+    s_n = np.empty(64, np.int64)
+    s_stage = np.empty(64, np.int64)
+    s_acc = np.empty(64)
+    depth = 0
+    s_lo[0], s_n[0], s_stage[0] = lo, n, 0
+    while True:
+        if s_n[depth] <= 128:
+            res = _pairwise_block(a, s_lo[depth], s_n[depth])
+            depth -= 1
+            while depth >= 0:
+                if s_stage[depth] == 0:  # left half done: keep it, go right
+                    s_acc[depth] = res
+                    s_stage[depth] = 1
+                    n2 = s_n[depth] // 2
+                    n2 -= n2 % 8
+                    depth += 1
+                    s_lo[depth], s_n[depth], s_stage[depth] = s_lo[depth - 1] + n2, s_n[depth - 1] - n2, 0
+                    break
+                res = s_acc[depth] + res  # both halves done
+                depth -= 1
+            if depth < 0:
+                return res
+        else:
+            n2 = s_n[depth] // 2
+            n2 -= n2 % 8
+            depth += 1
+            s_lo[depth], s_n[depth], s_stage[depth] = s_lo[depth - 1], n2, 0
 
 
 @numba.njit(cache=True)
@@ -272,6 +307,13 @@ class OpenLoop(Controller):
     requires = ()
     kernel = staticmethod(_kernel)
 
+    def __new__(cls, *args, **kwargs):
+        # the compiled loop looks for the kernel on the class: a 'random' signal (Gaussian samples drawn
+        # lazily from numpy Generators as time goes on) has none, so its controller is an _OpenLoopRandom
+        if cls is OpenLoop and args and getattr(args[0], "signal", None) == "random":
+            cls = _OpenLoopRandom
+        return super().__new__(cls)
+
     def _corner_array(self, name):
         n, nc = self.ctx.n_cars, self.ctx.n_corners
         a = np.asarray(getattr(self.p, name), dtype=float)
@@ -282,7 +324,6 @@ class OpenLoop(Controller):
 
     def reset(self):
         p, n, nc = self.p, self.ctx.n_cars, self.ctx.n_corners
-        self.__dict__.pop("kernel", None)
         self.amp = self._corner_array("amplitude")
         self.off = self._corner_array("offset")
         self.sig = self.p.signal if isinstance(self.p.signal, str) else None
@@ -313,8 +354,6 @@ class OpenLoop(Controller):
             else:
                 ph = self._lines("phases")
             self.ms = (f, a, ph)  # (n, L) each
-            if f.shape[1] > 128:
-                self.kernel = None  # the kernel reproduces numpy's sum of up to 128 lines only
         elif self.sig == "prbs":
             seqs = []
             for i, r in enumerate(self.rngs):
@@ -328,8 +367,6 @@ class OpenLoop(Controller):
                 seqs.append(np.stack(cols, axis=1))  # (period, k)
             self.seq = seqs
         elif self.sig == "random":
-            # the Gaussian samples are drawn lazily from numpy Generators as time goes on: no compiled kernel
-            self.kernel = None
             self.k = k
             self.noise = [np.zeros((0, k)) for _ in range(n)]
         elif self.sig == "table":
@@ -411,8 +448,6 @@ class OpenLoop(Controller):
         n, nc = self.ctx.n_cars, self.ctx.n_corners
         if self.sig == "random":
             raise NotImplementedError("open_loop 'random' has no compiled kernel (numpy Generator samples)")
-        if self.kernel is None:
-            raise NotImplementedError("open_loop kernel: multisine of more than 128 lines")
         p_ = self.p
 
         def per_car(v):
@@ -460,3 +495,9 @@ class OpenLoop(Controller):
         for i, x in enumerate(data):
             p[i, _HEADER + 2 * nc:_HEADER + 2 * nc + len(x)] = x
         return np.ascontiguousarray(p), np.zeros((n, ks))
+
+
+class _OpenLoopRandom(OpenLoop):
+    """OpenLoop with the ``random`` signal: no compiled kernel (see OpenLoop.__new__)."""
+
+    kernel = None

@@ -109,8 +109,8 @@ _NP = 14  # then the rule centres m_k (nk), m_b (nb), then per corner λ_k/M, λ
 
 
 @numba.njit(cache=True)
-def _pairwise_sum(a, lo, n):
-    """numpy's pairwise summation of a[lo:lo+n] (np.sum along a contiguous axis) for n <= 128."""
+def _pairwise_block(a, lo, n):
+    """numpy's pairwise summation of a[lo:lo+n] for n <= 128 (8 accumulators), same additions, same order."""
     if n < 8:
         res = -0.0
         for i in range(n):
@@ -134,6 +134,43 @@ def _pairwise_sum(a, lo, n):
         res += a[lo + i]
         i += 1
     return res
+
+
+@numba.njit(cache=True)
+def _pairwise_sum(a, lo, n):
+    """numpy's pairwise summation of a[lo:lo+n] (np.sum along a contiguous axis): blocks of <= 128 summed
+    by _pairwise_block, longer runs split in halves (multiples of 8) as numpy does; numpy's recursion is
+    unrolled on an explicit stack (a recursive function does not survive numba's cache)."""
+    if n <= 128:
+        return _pairwise_block(a, lo, n)
+    s_lo = np.empty(64, np.int64)
+    s_n = np.empty(64, np.int64)
+    s_stage = np.empty(64, np.int64)
+    s_acc = np.empty(64)
+    depth = 0
+    s_lo[0], s_n[0], s_stage[0] = lo, n, 0
+    while True:
+        if s_n[depth] <= 128:
+            res = _pairwise_block(a, s_lo[depth], s_n[depth])
+            depth -= 1
+            while depth >= 0:
+                if s_stage[depth] == 0:  # left half done: keep it, go right
+                    s_acc[depth] = res
+                    s_stage[depth] = 1
+                    n2 = s_n[depth] // 2
+                    n2 -= n2 % 8
+                    depth += 1
+                    s_lo[depth], s_n[depth], s_stage[depth] = s_lo[depth - 1] + n2, s_n[depth - 1] - n2, 0
+                    break
+                res = s_acc[depth] + res  # both halves done
+                depth -= 1
+            if depth < 0:
+                return res
+        else:
+            n2 = s_n[depth] // 2
+            n2 -= n2 % 8
+            depth += 1
+            s_lo[depth], s_n[depth], s_stage[depth] = s_lo[depth - 1], n2, 0
 
 
 @numba.njit(cache=True)
@@ -332,8 +369,6 @@ class ToscanoDumas(Controller):
     def kernel_data(self):
         n, nc, p = self.ctx.n_cars, self.ctx.n_corners, self.p
         nk, nb = self.nk, self.nb
-        if max(nk, nb) > 128:
-            raise NotImplementedError("toscano_dumas kernel: more than 128 rules")
 
         def col(v):
             return np.broadcast_to(np.asarray(v, dtype=float).reshape(-1), (n,))

@@ -237,12 +237,37 @@ def test_open_loop_kernel_chirp(method):
                                            fade_in=0.1), duration=0.3)) <= REL * 3.0
 
 
-def test_open_loop_random_has_no_kernel():
-    sim = _ensemble(dict(signal="random", amplitude=1.0))
-    assert sim.controller.kernel is None
-    with pytest.raises(NotImplementedError):
-        sim.controller.kernel_data()
-    assert _ensemble(dict(signal="sine", amplitude=1.0, frequency=1.0)).controller.kernel is not None
+def test_open_loop_random_has_no_kernel_and_runs():
+    from controllers.open_loop import OpenLoop
+    from suspension_sim.compiled.loop import plan
+
+    sim = _ensemble(dict(signal="random", amplitude=1.0), duration=0.05)
+    assert isinstance(sim.controller, OpenLoop) and type(sim.controller).kernel is None
+    assert plan(sim)[0] != "full"  # the compiled loop returns to Python for this controller
+    r = sim.run()[0]
+    assert r.ts["command"].std() > 0.5
+    assert type(_ensemble(dict(signal="sine", amplitude=1.0, frequency=1.0)).controller).kernel is not None
+
+
+def test_pairwise_sums_are_numpys():
+    from controllers.open_loop import _pairwise_sum
+    from controllers.toscano_dumas import _pairwise_sum as _pairwise_sum_td
+
+    rng = np.random.default_rng(0)
+    for n in (1, 5, 7, 8, 9, 16, 17, 127, 128, 129, 200, 513, 1029, 5000):
+        a = rng.standard_normal((2, n)) * 10.0 ** rng.uniform(-3, 3, (2, n))
+        ref = np.sum(a, axis=1)
+        for i in range(2):
+            assert _pairwise_sum(np.ascontiguousarray(a[i]), 0, n) == ref[i]
+            assert _pairwise_sum_td(np.concatenate([[9.0, 9.0], a[i]]), 2, n) == ref[i]
+
+
+def test_open_loop_kernel_long_multisine():
+    f = list(np.linspace(0.5, 40.0, 150))
+    assert check_controller(_ensemble(dict(signal="multisine", frequencies=f, amplitude=0.1),
+                                      dict(signal="multisine", frequencies=f, amplitude=0.2, start=0.05),
+                                      dict(signal="multisine", frequencies=f, amplitude=0.3), duration=0.1)
+                            ) <= REL * 0.3 * 150
 
 
 # Kim -----------------------------------------------------------------------------------------------------
