@@ -357,3 +357,50 @@ def test_mdof_adaptive_kernel_ensemble(request, adapt_model):
     np.testing.assert_array_equal(kn.ref.x, py.ref.x)
     np.testing.assert_array_equal(kn.wd_prev, py.wd_prev)
     assert_same_signals(py, kn)
+
+
+# --- the kernels in the compiled loop (suspension_sim.compiled.loop) ----------------------------------------
+
+def _no_effects(raw):
+    """Without the friction/bump-stop effects: their kernels (not this file's) agree with their numpy
+    methods to a few ulps only (tanh), which a closed loop then carries on."""
+    raw["vehicle"].pop("effects", None)
+
+
+def _ch7_no_maneuver(raw):
+    _ch7(raw)
+    raw["vehicle"].pop("maneuver")  # manoeuvres run in the Python loop
+
+
+@pytest.mark.parametrize("name, edit, param, values, exact", [
+    ("thesis_ch3_dirt", None, "sprung_mass", [250, 350, 450], True),
+    ("thesis_ch4_dirt", _no_effects, "sprung_mass", [250, 350, 450], True),
+    ("thesis_ch5_nominal", None, "sprung_mass", [250, 320], False),
+    ("thesis_ch6_bump", lambda raw: (_ch6_bump(raw), _no_effects(raw)), "sprung_mass", [70, 85], True),
+    ("thesis_ch7_braking", lambda raw: (_ch7_no_maneuver(raw), _no_effects(raw)), "sprung_mass", [450, 500], True),
+])
+def test_compiled_loop_equals_python_loop(request, monkeypatch, name, edit, param, values, exact):
+    """The full compiled loop with the thesis kernel gives the Python loop's time series (bit for bit, or
+    within 1e-12 relative for the SOC: see test_soc_lqg_kernel), and kernel_sync leaves the controller
+    with the Python run's final signals."""
+    scs = ensemble(request.config.rootpath, name, 1.0, param, values, edit)
+    runs = {}
+    for flag in ("1", "0"):
+        monkeypatch.setenv("SUSPENSION_SIM_COMPILED", flag)
+        sim = Simulation(scs)
+        runs[flag] = (sim.run(), sim)
+    assert runs["1"][1].loop == "full", runs["1"][1].loop_reason
+    assert runs["0"][1].loop == "python"
+    for rc, rp in zip(runs["1"][0], runs["0"][0]):
+        assert list(rc.ts.columns) == list(rp.ts.columns)
+        a, b = rc.ts.to_numpy(dtype=float), rp.ts.to_numpy(dtype=float)
+        if exact:
+            np.testing.assert_array_equal(a, b)
+        else:
+            scale = np.max(np.abs(b), axis=0, initial=0.0)
+            assert np.all(np.abs(a - b) <= 1e-12 * scale + 1e-300)
+    sc, sp = runs["1"][1].controller.signals(), runs["0"][1].controller.signals()
+    assert set(sc) == set(sp)
+    for k in sp:
+        np.testing.assert_allclose(np.asarray(sc[k], dtype=float), np.asarray(sp[k], dtype=float),
+                                   rtol=0.0 if exact else 1e-12, atol=0.0, err_msg=k)
