@@ -419,12 +419,20 @@ class Fallah(Controller):
         vs = v_cg + self.cy * roll_rate - self.cx * pitch_rate
         self.z_int = self.z_int + 0.5 * (vs + self.vs) * self.dt if self.k > 0 else self.z_int
         self.vs = vs
-        if p.position_mean_removal:
+        pmr = self._pmr()
+        if np.all(pmr):
             self.zs = self.z_int - self._window(self.buf_z, self.sum_z, self.z_int)
+        elif np.any(pmr):  # the flag differs across the ensemble
+            self.zs = np.where(pmr, self.z_int - self._window(self.buf_z, self.sum_z, self.z_int), self.z_int)
         else:
             self.zs = self.z_int.copy()
         self.k += 1
         return np.stack([self.zs, self.vs, travel, self.dv], axis=-1)  # (n, nc, 4)
+
+    def _pmr(self):
+        """(n_cars, 1) bools: position_mean_removal per car."""
+        v = self.p.position_mean_removal
+        return np.asarray(v if isinstance(v, list) else [v] * self.ctx.n_cars, dtype=bool).reshape(-1, 1)
 
     def step(self, t, y):
         x = self.estimate(y)
@@ -461,7 +469,7 @@ class Fallah(Controller):
 
         P = np.zeros((n, _NP + 6 * nc))
         P[:, _P_DT], P[:, _P_NW] = self.dt, self.nw
-        P[:, _P_PMR] = float(bool(p.position_mean_removal))  # one flag for the ensemble, as in estimate()
+        P[:, _P_PMR] = self._pmr()[:, 0]
         P[:, _P_A], P[:, _P_C], P[:, _P_FMAX] = col(p.a), col(p.c), col(p.f_max)
         P[:, _P_OACC] = start(p.acc_sensor)
         labels = self.ctx.sensors.get(p.gyro_sensor, []) if p.gyro_sensor else []

@@ -76,15 +76,21 @@ class Skyhook(Controller):
         f = -self.p.c_sky * vb
         if np.any(self.p.c_ground > 0):
             f = f + self.p.c_ground * self._get(y, "wheel_vel")
-        if self.p.semi_active:
+        semi = self._semi()
+        if np.any(semi):
             vr = self._get(y, "travel_rate")
-            f = np.where(f * vr <= 0, f, 0.0)
+            f = np.where(semi & ~(f * vr <= 0), 0.0, f)  # semi-active cars keep f only where f·vr <= 0
         return f
+
+    def _semi(self):
+        """(n_cars, 1) bools: the cars with semi-active clipping (the flag may differ across an ensemble)."""
+        v = self.p.semi_active
+        return np.asarray(v if isinstance(v, list) else [v] * self.ctx.n_cars, dtype=bool).reshape(-1, 1)
 
     def kernel_data(self):
         n = self.ctx.n_cars
         ground = bool(np.any(self.p.c_ground > 0))
-        semi = bool(self.p.semi_active)  # as in step(): one flag for the whole ensemble
+        semi = self._semi()[:, 0]
 
         def offset(name, used):
             if not used:
@@ -98,8 +104,8 @@ class Skyhook(Controller):
         p[:, _P_CSKY] = np.broadcast_to(np.asarray(self.p.c_sky, dtype=float).reshape(-1), (n,))
         p[:, _P_CGROUND] = np.broadcast_to(np.asarray(self.p.c_ground, dtype=float).reshape(-1), (n,))
         p[:, _P_GROUND] = float(ground)
-        p[:, _P_SEMI] = float(semi)
+        p[:, _P_SEMI] = semi
         p[:, _P_VB] = offset("corner_body_vel", True)
         p[:, _P_WV] = offset("wheel_vel", ground)
-        p[:, _P_VR] = offset("travel_rate", semi)
+        p[:, _P_VR] = offset("travel_rate", bool(np.any(semi)))
         return np.ascontiguousarray(p), np.zeros((n, 0))

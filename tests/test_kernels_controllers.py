@@ -85,13 +85,17 @@ def test_skyhook_kernel_single_car_exact():
 
 
 def test_skyhook_kernel_ensemble_groundhook_semi_active_exact():
-    """Three cars with different gains, one without groundhook, semi-active clipping active on all (the
-    numpy law applies one flag to the ensemble); noisy travel rate so that both sides of the clip occur."""
-    scs = [_quarter(dict(type="skyhook", params=dict(c_sky=cs, c_ground=cg, semi_active=True)), SKY_SENSORS)
-           for cs, cg in ((2500.0, 0.0), (1200.0, 800.0), (4000.0, 300.0))]
-    u = np.array([s["u"] for s in _python_run(Simulation(scs))])
-    assert np.sum(u == 0.0) > 50 and np.sum(u != 0.0) > 50  # both branches of the clip, on every car
-    assert np.all(np.sum(u == 0.0, axis=0) > 0) and np.all(np.sum(u != 0.0, axis=0) > 0)
+    """Three cars with different gains, one without groundhook and one without the semi-active clip; noisy
+    travel rate so that both sides of the clip occur."""
+    scs = [_quarter(dict(type="skyhook", params=dict(c_sky=cs, c_ground=cg, semi_active=semi)), SKY_SENSORS)
+           for cs, cg, semi in ((2500.0, 0.0, True), (1200.0, 800.0, False), (4000.0, 300.0, True))]
+    run = _python_run(Simulation(scs))
+    u = np.array([r["u"][:, 0] for r in run])
+    vr = np.array([r["readings"]["travel_rate"][:, 0] for r in run])
+    for i in (0, 2):  # both branches of the clip
+        assert np.sum(u[:, i] == 0.0) > 20 and np.sum(u[:, i] != 0.0) > 20
+        assert np.all(u[:, i] * vr[:, i] <= 0)
+    assert np.sum(u[:, 1] * vr[:, 1] > 0) > 20  # no clip on the second car
     assert check_controller(Simulation(scs)) == 0.0
 
 
@@ -394,18 +398,23 @@ def test_fallah_kernel_full_car_bump():
     _assert_close(stats)
 
 
-def test_fallah_kernel_no_gyro_no_position_mean_removal():
-    def make():
+def test_fallah_kernel_no_gyro_mixed_position_mean_removal():
+    def make(cases=((2.0, False), (4.0, True), (8.0, False))):
         scs = []
-        for a in (2.0, 4.0, 8.0):
+        for a, pmr in cases:
             scs.append(parse_scenario(dict(
                 vehicle=dict(model="half_car"), road=dict(type="bump", params=dict(preset="fallah"), speed=9.7222),
                 sensors=[dict(type="travel"), dict(type="body_acc")], actuator=dict(type="ideal", params=dict(max_force=6000)),
-                controller=dict(type="fallah", params=dict(a=a, gyro_sensor=None, position_mean_removal=False,
+                controller=dict(type="fallah", params=dict(a=a, gyro_sensor=None, position_mean_removal=pmr,
                                                            mean_window=0.05)),
                 sim=dict(duration=0.4, dt=0.0005, control_dt=0.001, log_dt=0.001))))
         return Simulation(scs)
-    _assert_close(_replay(make())[1])
+    run, stats = _replay(make())
+    _assert_close(stats)
+    for k, case in ((0, (2.0, False)), (1, (4.0, True))):  # each car as if alone (the flag is per car)
+        solo = _python_run(make((case,)))
+        np.testing.assert_array_equal(np.array([r["signals"]["zs_hat"][k] for r in run]),
+                                      np.array([r["signals"]["zs_hat"][0] for r in solo]))
 
 
 def test_fallah_kernel_sync():
