@@ -32,6 +32,10 @@ goes unstable at the control step): a σ-leakage on the integral parts and a bou
 accelerometer in practice).  Sensors: ``travel`` (z_s, z_p), ``travel_rate``, ``road``, ``road_vel``.
 Signals: ``ref_z.0/1`` (reference rattle spaces), ``err.0/1``, ``ref_acc`` (reference secondary-mass
 absolute acceleration), ``kp.k``, ``uax.k``.
+
+Compiled kernel (``_kernel``, :mod:`suspension_sim.compiled`): ``step`` for one car, bit-identical to it
+(the two BLAS products of ``step`` are exact in any order here: R2, R3 diagonal, P⁻¹ of 0 and 1);
+tests/test_kernels_thesis.py.
 """
 from __future__ import annotations
 

@@ -40,6 +40,10 @@ has no manoeuvre input: it stays level under braking, so the target pitch is the
 Signals: ``ref_z``/``ref_pitch`` (target for the current reading), ``err.0/1``, ``ref_acc`` (reference
 heave acceleration), ``theta.k`` (Θ unscaled, flattened), ``bias.0/1`` (the operating-point forces c
 mapped to actuator forces, N).
+
+Compiled kernel (``_kernel`` with thesis_common.dm_step, :mod:`suspension_sim.compiled`): ``step`` for one
+car, bit-identical to it (including np.einsum's summation order for Θᵀφ, which depends on Θ's memory
+layout: a lone car's differs from an ensemble's); tests/test_kernels_thesis.py.
 """
 from __future__ import annotations
 

@@ -39,6 +39,9 @@ of M*, C*, K* as the initial design values"), or ``theta0`` explicitly.
 Sensors: ``body_pos`` (x from the static equilibrium), ``body_vel`` (ẋ, for the velocity error), ``road``
 (w) and ``road_vel`` (ẇ) — the base of the rig.  Signals: ``theta.k``, ``b0``, ``ref_x``, ``ref_acc``,
 ``ref_travel``, ``err``.
+
+Compiled kernel (``_kernel``, :mod:`suspension_sim.compiled`): ``step`` for one car, bit-identical to it (the
+filter banks and dot products in np.einsum's summation order, see thesis_common); tests/test_kernels_thesis.py.
 """
 from __future__ import annotations
 

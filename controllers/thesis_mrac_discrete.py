@@ -33,6 +33,9 @@ the road D samples late.  Gains (P0, Q, trace bound) are not given by the thesis
 Sensors: ``body_pos`` (x), ``road`` (w) and ``road_vel`` (ẇ), all with the loop delay.  Signals:
 ``theta.k`` (unscaled Θ), ``ref_x`` (the target for the current reading), ``ref_acc``, ``ref_travel``,
 ``err`` (reading − target), ``pred_err`` (RLS prediction error, N).
+
+Compiled kernel (``_kernel`` with thesis_common.dm_step, :mod:`suspension_sim.compiled`): ``step`` for one
+car, bit-identical to it; tests/test_kernels_thesis.py.
 """
 from __future__ import annotations
 

@@ -29,6 +29,11 @@ This is an oracle, as in the thesis; it is said in the scenario file.
 
 Signals: ``gain.k`` (K), ``w_est.k`` (estimated road states), ``ref_*`` are not produced (no reference
 model); ``pi_acc`` (ẍ predicted by the model).
+
+Compiled kernel (``_kernel``, :mod:`suspension_sim.compiled`): ``step`` for one car with the rescheduled
+gains precomputed (``_gain`` for every schedule entry) — these are exact; the Kalman prediction
+W ← Wf Φᵀ is a BLAS product in ``step`` (FMA chain or gemv), summed in order in the kernel, so the road
+estimate and the command agree to ~1e-16 relative, not bit for bit; tests/test_kernels_thesis.py.
 """
 from __future__ import annotations
 
