@@ -471,3 +471,32 @@ def test_lin_kernel_large_ensemble_numpy_evaluation():
 
 def test_lin_kernel_sync():
     assert _check_sync(lambda: Simulation([_lin(duration=0.02)]))
+
+
+# the kernels inside the compiled loop ----------------------------------------------------------------------
+
+LOOP_CASES = {
+    "skyhook": lambda: [_quarter(dict(type="skyhook", params=dict(c_sky=cs, c_ground=cg, semi_active=semi)), SKY_SENSORS,
+                                 duration=0.3) for cs, cg, semi in ((2500.0, 0.0, True), (1200.0, 800.0, False))],
+    "open_loop": lambda: [_rig(signal="multisine", frequencies=[1.0, 2.0, 5.0], amplitude=a, fade_in=0.1, duration=0.3)
+                          for a in (50.0, 80.0)],
+    "toscano_dumas": lambda: [_toscano_half("triangular", duration=0.3, force_sensor="actuator_force", k_ref=k)
+                              for k in (10000.0, 8000.0)],
+    "lin_kanellakopoulos": lambda: [_lin(duration=0.1, height=0.03), _lin(duration=0.1, height=0.03, adaptive=False)],
+}
+
+
+@pytest.mark.parametrize("name", list(LOOP_CASES))
+def test_compiled_loop_equals_python_loop(name, monkeypatch):
+    """Simulation.run with the compiled loop (the kernel inlined, its state from kernel_data, written back
+    by kernel_sync) gives the Python loop's time series bit for bit."""
+    from suspension_sim.compiled.loop import plan
+
+    sim = Simulation(LOOP_CASES[name]())
+    assert plan(sim)[0] == "full"
+    compiled = sim.run()
+    monkeypatch.setenv("SUSPENSION_SIM_COMPILED", "0")
+    python = Simulation(LOOP_CASES[name]()).run()
+    for a, b in zip(compiled, python):
+        assert list(a.ts.columns) == list(b.ts.columns)
+        np.testing.assert_array_equal(a.ts.to_numpy(float), b.ts.to_numpy(float))
