@@ -41,7 +41,9 @@ Sensors: ``body_pos`` (x from the static equilibrium), ``body_vel`` (ẋ, for th
 ``ref_travel``, ``err``.
 
 Compiled kernel (``_kernel``, :mod:`suspension_sim.compiled`): ``step`` for one car, bit-identical to it (the
-filter banks and dot products in np.einsum's summation order, see thesis_common); tests/test_kernels_thesis.py.
+filter banks and dot products in np.einsum's summation order, see thesis_common), written out for this
+controller's fixed filter orders (≈ 0.06 µs per call against ≈ 1.1 µs with the generic filter helpers:
+benchmarks/bench_mrac_kernel.py); tests/test_kernels_thesis.py.
 """
 from __future__ import annotations
 
@@ -55,7 +57,7 @@ from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
-from .thesis_common import FB_HEADER, FilterBank, KernelLayout, _f, fb_update, fb_y, fb_yu, k_dot, stamped_cache
+from .thesis_common import FB_HEADER, FilterBank, KernelLayout, _f, stamped_cache
 
 
 class MRACContinuousParams(Params):
@@ -82,7 +84,8 @@ class MRACContinuousParams(Params):
 # ---- compiled kernel (suspension_sim.compiled): MRACContinuous.step for one car ----------------------------
 # p: the filters' headers (FB_HEADER values each, in _FILTERS order), then the scalars _PS.., Γ (5), then the
 # filter matrices.  st: Θ (6), b0, F, the signals ref_x, ref_acc, ref_travel, err, the scratch φ (6), P1φ (6)
-# and the filter inputs (F, x, w, 1), then the filter states.
+# and the filter inputs (F, x, w, 1) (unused by the specialised kernel), then the filter states (and their
+# unused scratch).
 _FILTERS = ("fEf", "fP", "fsP", "fP2", "fsP2", "fP1", "ref")
 _HEF, _HP, _HSP, _HP2, _HSP2, _HP1, _HREF = (FB_HEADER * i for i in range(len(_FILTERS)))
 _PS = FB_HEADER * len(_FILTERS)  # scalars: sensor offsets x, ẋ, w, ẇ; h, K_v, α, γ_d, static, γ_b0, b-range, Kc, Cc, 2ζω, ω²
@@ -91,14 +94,87 @@ _ST_TH, _ST_B0, _ST_F, _ST_RX, _ST_RA, _ST_RT, _ST_E = 0, 6, 7, 8, 9, 10, 11
 _ST_PHI, _ST_P1PHI, _ST_U = 12, 18, 24
 _ST_N = 28
 
+# The kernel is written out for this controller's fixed filter orders (P = P1·P2 of degree 3, P1 and the
+# reference of degree 2, P2 of degree 1), with every matrix and state at a fixed offset: no header decoding,
+# no runtime-sized loops, all values in locals (a store to st cannot force p to be read again).  The generic
+# helpers of thesis_common (fb_y/fb_yu/fb_update/k_dot) cost ≈ 1 µs per call for the same few hundred flops
+# (benchmarks/bench_mrac_kernel.py).  The sums keep k_dot's order (np.einsum's: even terms, odd terms, then
+# their sum, each from 0.0), so the kernel stays bit-identical to step.
+# (n states, n inputs, n outputs, n copies) of each filter; kernel_data checks them against the FilterBanks.
+_SIZES = {"fEf": (3, 1, 1, 1), "fP": (3, 1, 1, 4), "fsP": (3, 1, 1, 2), "fP2": (1, 1, 1, 4),
+          "fsP2": (1, 1, 1, 2), "fP1": (2, 1, 1, 1), "ref": (2, 1, 2, 1)}
 
-@numba.njit(cache=True)
-def _den3(st, p):
-    """Σ φ_k Γ_k φ_k (k < 5) as np.einsum("nk,k,nk->n") sums it: (φ·Γ)·φ in order from 0.0."""
-    acc = 0.0
-    for j in range(5):
-        acc += st[_ST_PHI + j] * p[_PG + j] * st[_ST_PHI + j]
-    return acc
+
+def _fixed_layout():
+    """{filter: (p offset of Ad, st offset of the state)} as kernel_data/kernel_pack place them."""
+    po, so, out = _PG + 5, _ST_N, {}
+    for nm in _FILTERS:
+        ns, nin, nout, k = _SIZES[nm]
+        out[nm] = (po, so)
+        po += ns * ns + ns * nin + nout * ns + nout * nin
+        so += k * ns + ns
+    return out
+
+
+_LAY = _fixed_layout()
+_MEF, _SEF = _LAY["fEf"]
+_MP, _SP = _LAY["fP"]
+_MSP, _SSP = _LAY["fsP"]
+_MP2, _SP2 = _LAY["fP2"]
+_MSP2, _SSP2 = _LAY["fsP2"]
+_MP1, _SP1 = _LAY["fP1"]
+_MREF, _SREF = _LAY["ref"]
+
+
+@numba.njit(inline="always")
+def _d1(a0, b0):
+    """k_dot of 1 term."""
+    return (0.0 + a0 * b0) + 0.0
+
+
+@numba.njit(inline="always")
+def _d2(a0, a1, b0, b1):
+    """k_dot of 2 terms."""
+    return (0.0 + a0 * b0) + (0.0 + a1 * b1)
+
+
+@numba.njit(inline="always")
+def _d3(a0, a1, a2, b0, b1, b2):
+    """k_dot of 3 terms."""
+    return ((0.0 + a0 * b0) + a2 * b2) + (0.0 + a1 * b1)
+
+
+@numba.njit(inline="always")
+def _d6(a0, a1, a2, a3, a4, a5, b0, b1, b2, b3, b4, b5):
+    """k_dot of 6 terms."""
+    return (((0.0 + a0 * b0) + a2 * b2) + a4 * b4) + (((0.0 + a1 * b1) + a3 * b3) + a5 * b5)
+
+
+@numba.njit(inline="always")
+def _y3(p, m, st, s):
+    """Cd x of a 3-state, 1-input, 1-output filter (matrices at p[m:], state at st[s:s + 3])."""
+    return _d3(p[m + 12], p[m + 13], p[m + 14], st[s], st[s + 1], st[s + 2])
+
+
+@numba.njit(inline="always")
+def _up3(p, m, x0, x1, x2, v):
+    """The next state Ad x + Bd v of a 3-state, 1-input filter (fb_update's sums)."""
+    return (_d3(p[m], p[m + 1], p[m + 2], x0, x1, x2) + _d1(p[m + 9], v),
+            _d3(p[m + 3], p[m + 4], p[m + 5], x0, x1, x2) + _d1(p[m + 10], v),
+            _d3(p[m + 6], p[m + 7], p[m + 8], x0, x1, x2) + _d1(p[m + 11], v))
+
+
+@numba.njit(inline="always")
+def _up2(p, m, x0, x1, v):
+    """The next state of a 2-state, 1-input filter."""
+    return (_d2(p[m], p[m + 1], x0, x1) + _d1(p[m + 4], v),
+            _d2(p[m + 2], p[m + 3], x0, x1) + _d1(p[m + 5], v))
+
+
+@numba.njit(inline="always")
+def _up1(p, m, x0, v):
+    """The next state of a 1-state, 1-input filter."""
+    return _d1(p[m], x0) + _d1(p[m + 1], v)
 
 
 @stamped_cache
@@ -111,61 +187,108 @@ def _kernel(t, y, p, st, u):
     h = p[_PS + 4]
     k_v = p[_PS + 5]
     alpha = p[_PS + 6]
+    # filter states (inputs up to the previous step)
+    a0, a1, a2 = st[_SP], st[_SP + 1], st[_SP + 2]  # 1/P: F, x, w, 1
+    b0_, b1, b2 = st[_SP + 3], st[_SP + 4], st[_SP + 5]
+    c0, c1, c2 = st[_SP + 6], st[_SP + 7], st[_SP + 8]
+    d0, d1, d2 = st[_SP + 9], st[_SP + 10], st[_SP + 11]
+    e0, e1, e2 = st[_SSP], st[_SSP + 1], st[_SSP + 2]  # s/P: x, w
+    f0, f1, f2 = st[_SSP + 3], st[_SSP + 4], st[_SSP + 5]
+    q0, q1, q2, q3 = st[_SP2], st[_SP2 + 1], st[_SP2 + 2], st[_SP2 + 3]  # 1/P2: F, x, w, 1
+    r0, r1 = st[_SSP2], st[_SSP2 + 1]  # s/P2: x, w
+    g0, g1 = st[_SP1], st[_SP1 + 1]  # 1/P1: F
+    m0, m1 = st[_SREF], st[_SREF + 1]  # reference: x_m, ẋ_m
+    n0, n1, n2 = st[_SEF], st[_SEF + 1], st[_SEF + 2]  # Q/P: e
     # regressor φ and P1·φ (as step: filter outputs before this step's update)
-    st[_ST_PHI] = fb_y(p, st, _HP, 0, 0)
-    st[_ST_PHI + 1] = fb_y(p, st, _HSP, 0, 0)
-    st[_ST_PHI + 2] = fb_y(p, st, _HP, 1, 0)
-    st[_ST_PHI + 3] = -fb_y(p, st, _HSP, 1, 0)
-    st[_ST_PHI + 4] = -fb_y(p, st, _HP, 2, 0)
-    st[_ST_PHI + 5] = fb_y(p, st, _HP, 3, 0)
-    st[_ST_U + 1] = x
-    st[_ST_U + 2] = w
-    st[_ST_U + 3] = 1.0
-    st[_ST_P1PHI] = fb_y(p, st, _HP2, 0, 0)
-    st[_ST_P1PHI + 1] = fb_yu(p, st, _HSP2, 0, 0, st, _ST_U + 1)
-    st[_ST_P1PHI + 2] = fb_y(p, st, _HP2, 1, 0)
-    st[_ST_P1PHI + 3] = -fb_yu(p, st, _HSP2, 1, 0, st, _ST_U + 2)
-    st[_ST_P1PHI + 4] = -fb_y(p, st, _HP2, 2, 0)
-    st[_ST_P1PHI + 5] = fb_y(p, st, _HP2, 3, 0)
-    xr0 = fb_y(p, st, _HREF, 0, 0)
-    xr1 = fb_y(p, st, _HREF, 0, 1)
+    ph0 = _y3(p, _MP, st, _SP)
+    ph1 = _y3(p, _MSP, st, _SSP)
+    ph2 = _y3(p, _MP, st, _SP + 3)
+    ph3 = -_y3(p, _MSP, st, _SSP + 3)
+    ph4 = -_y3(p, _MP, st, _SP + 6)
+    ph5 = _y3(p, _MP, st, _SP + 9)
+    cp2 = p[_MP2 + 2]
+    cs2 = p[_MSP2 + 2]
+    ds2 = p[_MSP2 + 3]
+    pp0 = _d1(cp2, q0)
+    pp1 = _d1(cs2, r0)
+    pp3 = _d1(cs2, r1)
+    if p[_HSP2 + 6] != 0.0:
+        pp1 = pp1 + _d1(ds2, x)
+        pp3 = pp3 + _d1(ds2, w)
+    pp3 = -pp3
+    pp2 = _d1(cp2, q1)
+    pp4 = -_d1(cp2, q2)
+    pp5 = _d1(cp2, q3)
+    xr0 = _d2(p[_MREF + 6], p[_MREF + 7], m0, m1)
+    xr1 = _d2(p[_MREF + 8], p[_MREF + 9], m0, m1)
     e = x - xr0
-    st[_ST_E] = e
-    ef = fb_yu(p, st, _HEF, 0, 0, st, _ST_E)
+    ef = _y3(p, _MEF, st, _SEF)
+    if p[_HEF + 6] != 0.0:
+        ef = ef + _d1(p[_MEF + 15], e)
     ed = xd - xr1
-    FP1 = fb_y(p, st, _HP1, 0, 0)
+    FP1 = _d2(p[_MP1 + 6], p[_MP1 + 7], g0, g1)
     b0 = st[_ST_B0]
-    eta = -(FP1 + k_dot(st, _ST_PHI, st, _ST_TH, 6))
+    th0, th1, th2, th3, th4, th5 = st[_ST_TH], st[_ST_TH + 1], st[_ST_TH + 2], st[_ST_TH + 3], st[_ST_TH + 4], \
+        st[_ST_TH + 5]
+    eta = -(FP1 + _d6(ph0, ph1, ph2, ph3, ph4, ph5, th0, th1, th2, th3, th4, th5))
     eps = ef + b0 * eta + k_v * ed
-    # adaptation
-    den = alpha + _den3(st, p)
+    # adaptation (Σ φ_k Γ_k φ_k as np.einsum("nk,k,nk->n") sums it: in order from 0.0)
+    G0, G1, G2, G3, G4 = p[_PG], p[_PG + 1], p[_PG + 2], p[_PG + 3], p[_PG + 4]
+    den = alpha + (((((0.0 + ph0 * G0 * ph0) + ph1 * G1 * ph1) + ph2 * G2 * ph2) + ph3 * G3 * ph3)
+                   + ph4 * G4 * ph4)
     r = eps / den
-    for j in range(5):
-        st[_ST_TH + j] += h * p[_PG + j] * st[_ST_PHI + j] * r
+    th0 += h * G0 * ph0 * r
+    th1 += h * G1 * ph1 * r
+    th2 += h * G2 * ph2 * r
+    th3 += h * G3 * ph3 * r
+    th4 += h * G4 * ph4 * r
     if p[_PS + 8] != 0.0:
-        pd = st[_ST_PHI + 5]
-        st[_ST_TH + 5] += h * p[_PS + 7] * pd * eps / (alpha + pd * pd)
+        th5 += h * p[_PS + 7] * ph5 * eps / (alpha + ph5 * ph5)
+    bn = b0
     if p[_PS + 9] > 0.0:
         epsh = ef + b0 * eta
         b = b0 - h * p[_PS + 9] * eta * epsh / (1e-12 + eta * eta)
-        st[_ST_B0] = min(max(b, p[_PS + 10]), p[_PS + 11])
-    F = -k_dot(st, _ST_TH, st, _ST_P1PHI, 6)
-    u[0] = F - p[_PS + 13] * wd - p[_PS + 12] * w
+        bn = min(max(b, p[_PS + 10]), p[_PS + 11])
+    F = -_d6(th0, th1, th2, th3, th4, th5, pp0, pp1, pp2, pp3, pp4, pp5)
+    fact = F - p[_PS + 13] * wd - p[_PS + 12] * w
+    ra = -p[_PS + 14] * xr1 - p[_PS + 15] * (xr0 - w)
     # advance the filters with this step's inputs
-    st[_ST_U] = F
-    for c in range(4):
-        fb_update(p, st, _HP, c, st, _ST_U + c)
-        fb_update(p, st, _HP2, c, st, _ST_U + c)
-    for c in range(2):
-        fb_update(p, st, _HSP, c, st, _ST_U + 1 + c)
-        fb_update(p, st, _HSP2, c, st, _ST_U + 1 + c)
-    fb_update(p, st, _HP1, 0, st, _ST_U)
-    fb_update(p, st, _HREF, 0, st, _ST_U + 2)
-    fb_update(p, st, _HEF, 0, st, _ST_E)
+    A0, A1, A2 = _up3(p, _MP, a0, a1, a2, F)
+    B0, B1, B2 = _up3(p, _MP, b0_, b1, b2, x)
+    C0, C1, C2 = _up3(p, _MP, c0, c1, c2, w)
+    D0, D1, D2 = _up3(p, _MP, d0, d1, d2, 1.0)
+    E0, E1, E2 = _up3(p, _MSP, e0, e1, e2, x)
+    F0, F1, F2 = _up3(p, _MSP, f0, f1, f2, w)
+    Q0 = _up1(p, _MP2, q0, F)
+    Q1 = _up1(p, _MP2, q1, x)
+    Q2 = _up1(p, _MP2, q2, w)
+    Q3 = _up1(p, _MP2, q3, 1.0)
+    R0 = _up1(p, _MSP2, r0, x)
+    R1 = _up1(p, _MSP2, r1, w)
+    G0n, G1n = _up2(p, _MP1, g0, g1, F)
+    M0, M1 = _up2(p, _MREF, m0, m1, w)
+    N0, N1, N2 = _up3(p, _MEF, n0, n1, n2, e)
+    # stores
+    st[_SP], st[_SP + 1], st[_SP + 2] = A0, A1, A2
+    st[_SP + 3], st[_SP + 4], st[_SP + 5] = B0, B1, B2
+    st[_SP + 6], st[_SP + 7], st[_SP + 8] = C0, C1, C2
+    st[_SP + 9], st[_SP + 10], st[_SP + 11] = D0, D1, D2
+    st[_SSP], st[_SSP + 1], st[_SSP + 2] = E0, E1, E2
+    st[_SSP + 3], st[_SSP + 4], st[_SSP + 5] = F0, F1, F2
+    st[_SP2], st[_SP2 + 1], st[_SP2 + 2], st[_SP2 + 3] = Q0, Q1, Q2, Q3
+    st[_SSP2], st[_SSP2 + 1] = R0, R1
+    st[_SP1], st[_SP1 + 1] = G0n, G1n
+    st[_SREF], st[_SREF + 1] = M0, M1
+    st[_SEF], st[_SEF + 1], st[_SEF + 2] = N0, N1, N2
+    st[_ST_TH], st[_ST_TH + 1], st[_ST_TH + 2], st[_ST_TH + 3], st[_ST_TH + 4], st[_ST_TH + 5] = \
+        th0, th1, th2, th3, th4, th5
+    st[_ST_B0] = bn
     st[_ST_F] = F
+    st[_ST_E] = e
     st[_ST_RX] = xr0
-    st[_ST_RA] = -p[_PS + 14] * xr1 - p[_PS + 15] * (xr0 - w)
+    st[_ST_RA] = ra
     st[_ST_RT] = xr0 - w
+    u[0] = fact
 
 
 @CONTROLLERS.register("thesis_mrac_continuous")
@@ -293,7 +416,13 @@ class MRACContinuous(Controller):
                          for k in ("ref_x", "ref_acc", "ref_travel", "err")], axis=1), per_car=True)
         assert lay.st(np.zeros(_ST_N - _ST_PHI)) == _ST_PHI
         self._kso = {nm: getattr(self, nm).kernel_pack(lay, FB_HEADER * i) for i, nm in enumerate(_FILTERS)}
-        return lay.arrays()
+        p, st = lay.arrays()
+        for i, nm in enumerate(_FILTERS):  # the specialised kernel reads the filters at fixed offsets
+            ns, nin, nout, k = _SIZES[nm]
+            po, ns_, nin_, nout_, so = p[0, FB_HEADER * i:FB_HEADER * i + 5]
+            if (po, so, ns_, nin_, nout_, getattr(self, nm).x.shape[1]) != (*_LAY[nm], ns, nin, nout, k):
+                raise AssertionError(f"thesis_mrac_continuous kernel: filter {nm} not in the fixed layout")
+        return p, st
 
     def kernel_signals(self):
         return {"theta": (_ST_TH, _ST_TH + 6), "b0": (_ST_B0, _ST_B0 + 1), "ref_x": (_ST_RX, _ST_RX + 1),
