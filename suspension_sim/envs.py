@@ -159,10 +159,9 @@ class SuspensionPhysics(_engine.Physics):
         z, zd = sim._road_chunk(k, k + 1)[:2]
         road, road_vel = z[:, 0, :], zd[:, 0, :]
         acc, F_act, F_teff = sim.end_forces  # the last physics step's, as the loop would hold them
-        d.qpos[P.road_q] = road
-        d.qvel[P.road_v] = road_vel
-        d.ctrl[P.road_servo] = road
+        P.place_road(d, road, road_vel)
         mujoco.mj_step1(m, d)
+        P.restore_road()
         state = sim._state(k * sim.dt, road, road_vel, acc, F_act, F_teff)
         readings = {ch.name: ch.sample(state) for ch in sim.sensors}
         if sim.full_state:

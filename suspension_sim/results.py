@@ -61,7 +61,7 @@ class Logger:
         if P.has_tire:
             self._corner("wheel_z", j, d.qpos[P.wheel_q])
             self._corner("wheel_vel", j, d.qvel[P.wheel_v])
-            tl, tr = d.ten_length[P.tire_t], d.ten_velocity[P.tire_t]
+            tl, tr = P.tire_deflection(d, road, road_vel)
             self._corner("tire_force", j, -self.sim.kt * tl - self.sim.ct * tr + F_teff)
             self._corner("tire_effect_force", j, F_teff)
         self._corner("road", j, road)

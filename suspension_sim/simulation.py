@@ -279,7 +279,7 @@ class Simulation:
         wheel_vel = d.qvel[P.wheel_v]
         wheel_acc = acc[P.wheel_v] if P.has_tire else np.zeros_like(travel)
         if P.has_tire:
-            tl, tr = d.ten_length[P.tire_t], d.ten_velocity[P.tire_t]
+            tl, tr = P.tire_deflection(d, road, road_vel)
             tire = -self.kt * tl - self.ct * tr + F_tire_eff
         else:
             tire = np.zeros_like(travel)
@@ -401,9 +401,12 @@ class Simulation:
             if j == 0:
                 road_chunk = self._road_chunk(k, min(k + chunk, self.n_steps))
             road, road_vel = road_chunk[0][:, j, :], road_chunk[1][:, j, :]
-            S.road_q.set(road)
-            S.road_v.set(road_vel)
-            S.road_servo.set(road)
+            if P.road_dof:
+                S.road_q.set(road)
+                S.road_v.set(road_vel)
+                S.road_servo.set(road)
+            else:
+                P.place_road(d, road, road_vel)
             control_now = k % self.sub == 0
             if control_now and self.variations:
                 self._apply_variations(t)
@@ -434,6 +437,8 @@ class Simulation:
                 F_teff = zeros.copy()
                 if tire_effects:
                     tlen, tvel = S.tire_len.get(), S.tire_vel.get()
+                    if not P.road_dof:  # wheel − road
+                        tlen, tvel = tlen - road, tvel - road_vel
                 for eff, sel, every in effects:
                     if eff.target == "tire":
                         if every:
@@ -445,8 +450,10 @@ class Simulation:
                     else:
                         F_eff[:, sel] += eff.force(travel[:, sel], rate[:, sel], t, self.dt)
                 S.eff_s.set(F_eff)
-                if P.has_tire:
+                if P.has_tire and P.road_dof:
                     S.eff_t.set(F_teff)
+            if not P.road_dof:  # the road-rate part of the tire damper rides on the tire effect motor
+                S.eff_t.set(F_teff + P.tire_road_force(road_vel))
             S.act.set(F_act)
             log_now = k % self.log_every == 0
             if log_now:
@@ -475,6 +482,7 @@ class Simulation:
                 progress(k / self.n_steps)
         self.end_forces = (acc, F_act, F_teff)  # the last step's acceleration and forces (envs.py's last observation)
         self._check(self.n_steps * self.dt, d)
+        P.restore_road()
         wall = _time.perf_counter() - wall0
         if progress is not None:
             progress(1.0)
@@ -541,7 +549,8 @@ def _mj_bad_values(d, stats=None) -> str:
 
 def _car_of_ctrl(P, u: int):
     for i in range(P.n):
-        grids = [P.act[i], P.eff_s[i], P.road_servo[i]] + ([P.eff_t[i]] if P.eff_t is not None else [])
+        grids = [P.act[i], P.eff_s[i]] + ([P.road_servo[i]] if P.road_dof else []) + \
+            ([P.eff_t[i]] if P.eff_t is not None else [])
         if any(u in g for g in grids):
             return i
     return None
@@ -585,7 +594,8 @@ class _Slot:
 
 class _Slots:
     def __init__(self, P, d):
-        self.road_q, self.road_v, self.road_servo = _Slot(d.qpos, P.road_q), _Slot(d.qvel, P.road_v), _Slot(d.ctrl, P.road_servo)
+        if P.road_dof:
+            self.road_q, self.road_v, self.road_servo = _Slot(d.qpos, P.road_q), _Slot(d.qvel, P.road_v), _Slot(d.ctrl, P.road_servo)
         self.susp_len, self.susp_vel = _Slot(d.ten_length, P.susp_t), _Slot(d.ten_velocity, P.susp_t)
         self.tire_len, self.tire_vel = _Slot(d.ten_length, P.tire_t), _Slot(d.ten_velocity, P.tire_t)
         self.eff_s, self.eff_t, self.act = _Slot(d.ctrl, P.eff_s), _Slot(d.ctrl, P.eff_t), _Slot(d.ctrl, P.act)

@@ -32,7 +32,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-TEMPLATE_VERSION = 1
+TEMPLATE_VERSION = 6
 
 # PlantState fields a compiled sensor may read (Sensor.kernel_field), by code
 FIELDS = ("body_pos", "body_vel", "body_acc", "corner_body_pos", "corner_body_vel", "corner_body_acc",
@@ -152,15 +152,15 @@ def generate_source(effects, actuator, controller) -> str:
         sig_logs.append(
             f"                for q in range(e{k}_sigj.shape[0]):\n"
             f"                    for jj in range(e{k}_lc.shape[1]):\n"
-            f"                        L[i, jl, e{k}_lc[q, jj]] = e{k}_st[i, jj, e{k}_sigj[q]]\n")
+            f"                        L[e{k}_lc[q, jj], i, jl] = e{k}_st[i, jj, e{k}_sigj[q]]\n")
     n_eff = len(effects)
     ctrl_block = ("                    ctrl_kernel(t, y[i], c_p[i], c_st[i], cmd[i])\n" if controller is not None
                   else "                    pass\n")
     body = f'''
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def field_value(f, col, aux, i, jr, qpos, qvel, ten_len, ten_vel, acc, body_q, body_v, wheel_q, wheel_v, susp_t,
-                tire_t, has_tire, road_z, road_zd, kt, ct, Jb, F_act, F_teff, a_st):
+                tire_t, has_tire, road_z, road_zd, kt, ct, Jb, F_act, F_teff, a_st, road_dof):
     if f == 0:
         return qpos[body_q[i, col]]
     if f == 1:
@@ -192,7 +192,12 @@ def field_value(f, col, aux, i, jr, qpos, qvel, ten_len, ten_vel, acc, body_q, b
         return road_zd[i, jr, col]
     if f == 13:
         if has_tire:
-            return -kt[i, col] * ten_len[tire_t[i, col]] - ct[i, col] * ten_vel[tire_t[i, col]] + F_teff[i, col]
+            tl = ten_len[tire_t[i, col]]
+            tv = ten_vel[tire_t[i, col]]
+            if not road_dof:
+                tl = tl - road_z[i, jr, col]
+                tv = tv - road_zd[i, jr, col]
+            return -kt[i, col] * tl - ct[i, col] * tv + F_teff[i, col]
         return 0.0
     if f == 14:
         return F_act[i, col]
@@ -202,18 +207,18 @@ def field_value(f, col, aux, i, jr, qpos, qvel, ten_len, ten_vel, acc, body_q, b
 @njit(cache=True)
 def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
          road_q, road_v, road_servo, susp_t, tire_t, eff_s, eff_t, act, wheel_q, wheel_v, body_q, body_v,
-         free_q, free_v, has_tire, has_effects, has_tire_effects, kt, ct, Jb,
+         free_q, free_v, has_tire, has_effects, has_tire_effects, kt, ct, Jb, road_dof, lsp, rest0, tire_ct,
          road_z, road_zd, k_chunk0, k0, k1, resume, full_control, n_steps, sub, log_every, dt, lim_x, lim_v,
          cmd, F_act, F_eff, F_teff, acc, v_before, sv, a_p, a_st,
          sens_field, sens_cols, sens_aux, sens_off, sens_k, sens_delay, sens_hold, sens_bias, sens_std, sens_q,
-         noise, noise_off, ring, y, kc_arr, c_p, c_st,
+         noise, noise_off, ring, sens_tmp, y, kc_arr, c_p, c_st,
          L, LC, lc_act, act_j, lc_y, lc_ctrl, ctrl_j{eargs}):
     """Physics steps k0..k1-1 (road samples of step k at road_z[:, k - k_chunk0]).  Returns k1 when done,
     k (>= 0) at a control instant that Python must handle (hybrid loop, after mj_step1 of step k: call again
     with resume=1 from k), or -(k + 1) when the state check at control instant k fails."""
     n, nc = road_q.shape
     nb = body_q.shape[1]
-    n_log = L.shape[1]
+    n_log = L.shape[2]
     k = k0
     skip = resume
     while k < k1:
@@ -223,9 +228,13 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
             for i in range(n):
                 for c in range(nc):
                     z = road_z[i, jr, c]
-                    qpos[road_q[i, c]] = z
-                    qvel[road_v[i, c]] = road_zd[i, jr, c]
-                    ctrl[road_servo[i, c]] = z
+                    if road_dof:
+                        qpos[road_q[i, c]] = z
+                        qvel[road_v[i, c]] = road_zd[i, jr, c]
+                        ctrl[road_servo[i, c]] = z
+                    else:  # the road as the tire spring's rest length (Plant.place_road)
+                        lsp[tire_t[i, c], 0] = rest0[i, c, 0] + z
+                        lsp[tire_t[i, c], 1] = rest0[i, c, 1] + z
             mj_step1(m_addr, d_addr)
             if k % sub == 0:
                 bad = False
@@ -244,22 +253,26 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                     return k
                 # sensors: true value -> delay -> bias + noise -> quantisation -> sample-and-hold
                 kc = kc_arr[0]
+                ns = sens_field.shape[0]
+                for sc in range(ns):  # ring slots, hold and noise index of this control step (same for all cars)
+                    nr = sens_delay[sc] + 1
+                    old = kc - sens_delay[sc] if kc >= sens_delay[sc] else 0
+                    sens_tmp[sc, 0] = kc % nr
+                    sens_tmp[sc, 1] = old % nr
+                    sens_tmp[sc, 2] = 1 if kc % sens_hold[sc] == 0 else 0
+                    sens_tmp[sc, 3] = noise_off[sc] + (kc // sens_hold[sc]) * sens_k[sc]
                 for i in range(n):
-                    for sc in range(sens_field.shape[0]):
-                        D = sens_delay[sc]
-                        nr = D + 1
+                    for sc in range(ns):
                         for q in range(sens_k[sc]):
-                            ring[i, sc, kc % nr, q] = field_value(
+                            ring[i, sc, sens_tmp[sc, 0], q] = field_value(
                                 sens_field[sc], sens_cols[sc, q], sens_aux[sc], i, jr, qpos, qvel, ten_len, ten_vel,
                                 acc, body_q, body_v, wheel_q, wheel_v, susp_t, tire_t, has_tire, road_z, road_zd,
-                                kt, ct, Jb, F_act, F_teff, a_st)
-                        if kc % sens_hold[sc] == 0:
-                            old = kc - D if kc >= D else 0
-                            m_draw = kc // sens_hold[sc]
+                                kt, ct, Jb, F_act, F_teff, a_st, road_dof)
+                        if sens_tmp[sc, 2]:
                             for q in range(sens_k[sc]):
-                                val = ring[i, sc, old % nr, q] + sens_bias[sc]
+                                val = ring[i, sc, sens_tmp[sc, 1], q] + sens_bias[sc]
                                 if sens_std[sc] > 0:
-                                    val = val + noise[i, noise_off[sc] + m_draw * sens_k[sc] + q]
+                                    val = val + noise[i, sens_tmp[sc, 3] + q]
                                 if sens_q[sc] > 0:
                                     val = np.rint(val / sens_q[sc]) * sens_q[sc]
                                 y[i, sens_off[sc] + q] = val
@@ -282,11 +295,16 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                     if has_tire_effects:
                         tl = ten_len[tire_t[i, c]]
                         tv = ten_vel[tire_t[i, c]]
+                        if not road_dof:
+                            tl = tl - road_z[i, jr, c]
+                            tv = tv - road_zd[i, jr, c]
 {''.join(tire_calls) if tire_calls else "                        pass" + chr(10)}{''.join(susp_calls)}                    F_eff[i, c] = f
                     F_teff[i, c] = ft
                     ctrl[eff_s[i, c]] = f
-                    if has_tire:
+                    if has_tire and road_dof:
                         ctrl[eff_t[i, c]] = ft
+                if not road_dof:
+                    ctrl[eff_t[i, c]] = F_teff[i, c] + tire_ct[i, c] * road_zd[i, jr, c]
                 ctrl[act[i, c]] = Fa
         log_now = k % log_every == 0
         jl = k // log_every
@@ -294,28 +312,33 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
             for i in range(n):
                 for b in range(nb):
                     if LC[0, b] >= 0:
-                        L[i, jl, LC[0, b]] = qpos[body_q[i, b]]
-                        L[i, jl, LC[1, b]] = qvel[body_v[i, b]]
+                        L[LC[0, b], i, jl] = qpos[body_q[i, b]]
+                        L[LC[1, b], i, jl] = qvel[body_v[i, b]]
                 for c in range(nc):
-                    L[i, jl, LC[3, c]] = ten_len[susp_t[i, c]]
-                    L[i, jl, LC[4, c]] = ten_vel[susp_t[i, c]]
+                    L[LC[3, c], i, jl] = ten_len[susp_t[i, c]]
+                    L[LC[4, c], i, jl] = ten_vel[susp_t[i, c]]
                     if has_tire:
-                        L[i, jl, LC[5, c]] = qpos[wheel_q[i, c]]
-                        L[i, jl, LC[6, c]] = qvel[wheel_v[i, c]]
-                        L[i, jl, LC[7, c]] = -kt[i, c] * ten_len[tire_t[i, c]] - ct[i, c] * ten_vel[tire_t[i, c]] + F_teff[i, c]
-                        L[i, jl, LC[8, c]] = F_teff[i, c]
-                    L[i, jl, LC[9, c]] = road_z[i, jr, c]
-                    L[i, jl, LC[10, c]] = road_zd[i, jr, c]
-                    L[i, jl, LC[11, c]] = cmd[i, c]
-                    L[i, jl, LC[12, c]] = F_act[i, c]
-                    L[i, jl, LC[13, c]] = F_eff[i, c]
+                        L[LC[5, c], i, jl] = qpos[wheel_q[i, c]]
+                        L[LC[6, c], i, jl] = qvel[wheel_v[i, c]]
+                        tl = ten_len[tire_t[i, c]]
+                        tv = ten_vel[tire_t[i, c]]
+                        if not road_dof:
+                            tl = tl - road_z[i, jr, c]
+                            tv = tv - road_zd[i, jr, c]
+                        L[LC[7, c], i, jl] = -kt[i, c] * tl - ct[i, c] * tv + F_teff[i, c]
+                        L[LC[8, c], i, jl] = F_teff[i, c]
+                    L[LC[9, c], i, jl] = road_z[i, jr, c]
+                    L[LC[10, c], i, jl] = road_zd[i, jr, c]
+                    L[LC[11, c], i, jl] = cmd[i, c]
+                    L[LC[12, c], i, jl] = F_act[i, c]
+                    L[LC[13, c], i, jl] = F_eff[i, c]
                 for q in range(act_j.shape[0]):
                     for c in range(nc):
-                        L[i, jl, lc_act[q, c]] = a_st[i, c, act_j[q]]
+                        L[lc_act[q, c], i, jl] = a_st[i, c, act_j[q]]
                 for q in range(lc_y.shape[0]):
-                    L[i, jl, lc_y[q]] = y[i, q]
+                    L[lc_y[q], i, jl] = y[i, q]
                 for q in range(lc_ctrl.shape[0]):
-                    L[i, jl, lc_ctrl[q]] = c_st[i, ctrl_j[q]]
+                    L[lc_ctrl[q], i, jl] = c_st[i, ctrl_j[q]]
 {''.join(sig_logs)}        need_acc = log_now or (k + 1) % sub == 0
         if need_acc:
             for i in range(n):
@@ -336,10 +359,10 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
             for i in range(n):
                 for b in range(nb):
                     if LC[2, b] >= 0:
-                        L[i, jl, LC[2, b]] = acc[body_v[i, b]]
+                        L[LC[2, b], i, jl] = acc[body_v[i, b]]
                 if has_tire:
                     for c in range(nc):
-                        L[i, jl, LC[14, c]] = acc[wheel_v[i, c]]
+                        L[LC[14, c], i, jl] = acc[wheel_v[i, c]]
         for i in range(n):
             for c in range(nc):
                 act_advance(cmd[i, c], sv[i, c, 0], sv[i, c, 1], t, dt, a_p[i, c], a_st[i, c])
@@ -538,14 +561,16 @@ def run(sim, mode: str, progress=None) -> list:
         sens_cols, noise, ring, ytot = np.zeros((ns, 1), np.int64), np.zeros((n, 1)), np.zeros((n, 1, 1, 1)), 0
         c_p, c_st, ctrl_widths, ctrl_j = np.zeros((n, 1)), np.zeros((n, 0)), [], np.zeros(0, np.int64)
 
+    sens_tmp = np.zeros((max(ns, 1), 4), np.int64)
     n_log = sim.n_steps // sim.log_every
     layout = _Layout(sim)
     y = np.zeros((n, max(ytot, 1)))
 
     def make_log():
         layout.add_rest(sim, act_names, reading_widths, ctrl_widths, eff_sigs)
-        # (car, log step, channel): each log step writes one contiguous row per car; every entry is written
-        L = np.empty((n, n_log, len(layout.names)))
+        # channel-major (channel, car, log step): each channel is one contiguous (n_cars, n_log) array for the
+        # metrics; every entry is written by the loop
+        L = np.empty((len(layout.names), n, n_log))
         eff_full = []
         for args, lc in zip(eff_args, layout.eff_lc):
             eff_full += args + [lc]
@@ -554,7 +579,7 @@ def run(sim, mode: str, progress=None) -> list:
     if full:
         L, eff_full = make_log()
     else:  # the layout needs the first readings and controller signals: built at the first control instant
-        L = np.zeros((n, 0, 0))
+        L = np.zeros((0, n, 0))
         eff_full = []
         for args in eff_args:
             eff_full += args + [np.zeros((len(args[3]), int(args[2].max()) + 1 if args[2].size else 0), np.int64)]
@@ -578,16 +603,19 @@ def run(sim, mode: str, progress=None) -> list:
     if has_tire_eff and not P.has_tire:  # pragma: no cover - refused when the Simulation is built
         raise RuntimeError("tire effect without a tire")
     fixed = (m._address, d._address, d.qpos, d.qvel, d.ctrl, d.ten_length, d.ten_velocity, warn, warn_idx,
-             _i64(P.road_q), _i64(P.road_v), _i64(P.road_servo), _i64(P.susp_t), tire_t, _i64(P.eff_s), eff_t,
+             _i64(P.road_q if P.road_dof else dummy), _i64(P.road_v if P.road_dof else dummy),
+             _i64(P.road_servo if P.road_dof else dummy), _i64(P.susp_t), tire_t, _i64(P.eff_s), eff_t,
              _i64(P.act), _i64(P.wheel_q), _i64(P.wheel_v), _i64(P.body_q), _i64(P.body_v),
-             _i64(P.free_q), _i64(P.free_v), bool(P.has_tire), bool(sim.effects), bool(has_tire_eff), kt, ct, Jb)
+             _i64(P.free_q), _i64(P.free_v), bool(P.has_tire), bool(sim.effects), bool(has_tire_eff), kt, ct, Jb,
+             bool(P.road_dof), m.tendon_lengthspring, _f64(P.tire_rest0 if not P.road_dof else np.zeros((n, nc, 2))),
+             _f64(P.tire_ct if not P.road_dof else np.zeros((n, nc))))
 
     def call(road_z, road_zd, k_chunk0, k, k1, resume):
         return mod.loop(*fixed, road_z, road_zd, k_chunk0, k, k1, resume, full, sim.n_steps, sim.sub,
                         sim.log_every, sim.dt, float(sc0.max_displacement), float(sc0.max_velocity),
                         cmd, F_act, F_eff, F_teff, acc, v_before, sv, a_p, a_st,
                         sens["field"], sens_cols, sens["aux"], sens["off"], sens["k"], sens["delay"],
-                        sens["hold"], sens["bias"], sens["std"], sens["q"], noise, sens["noise_off"], ring, y,
+                        sens["hold"], sens["bias"], sens["std"], sens["q"], noise, sens["noise_off"], ring, sens_tmp, y,
                         kc_arr, c_p, c_st, L, layout.LC, layout.lc_act, act_j, layout.lc_y, layout.lc_ctrl,
                         ctrl_j, *eff_full)
 
@@ -595,7 +623,7 @@ def run(sim, mode: str, progress=None) -> list:
     logger.t[:] = (np.arange(n_log) * sim.log_every) * sim.dt
 
     def attach_log():
-        logger.ch = {name: L[:, :, j] for j, name in enumerate(layout.names)}
+        logger.ch = {name: L[j] for j, name in enumerate(layout.names)}
 
     if full:
         attach_log()
@@ -636,7 +664,7 @@ def run(sim, mode: str, progress=None) -> list:
             cmd[:] = command
             sig = {nm: np.asarray(v, dtype=float).reshape(n, -1) for nm, v in ctrl.signals().items()}
             rd = [(nm, np.asarray(v).reshape(n, -1)) for nm, v in readings.items() if not nm.startswith("state.")]
-            if L.shape[2] == 0:  # first control instant: now the log layout is known
+            if L.shape[0] == 0:  # first control instant: now the log layout is known
                 reading_widths[:] = [(nm, v.shape[1]) for nm, v in rd]
                 ctrl_widths[:] = [(nm, v.shape[1]) for nm, v in sig.items()]
                 y = np.zeros((n, max(1, sum(w for _, w in reading_widths))))
@@ -665,5 +693,6 @@ def run(sim, mode: str, progress=None) -> list:
         ctrl.kernel_sync(c_st)
     sim.end_forces = (acc, F_act, F_teff)
     sim._check(sim.n_steps * sim.dt, d)
+    P.restore_road()
     wall = _time.perf_counter() - wall0
     return [Result.from_logger(logger, i, sim, wall) for i in range(n)]
