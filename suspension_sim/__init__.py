@@ -8,6 +8,11 @@ import os as _os
 
 # dm_control imports a rendering backend on import; the simulator renders nothing itself.
 _os.environ.setdefault("MUJOCO_GL", "egl")
+# The models are tiny, so BLAS threads never help; OpenBLAS's idle threads spin after each call and doubled
+# the CPU time of a run (and stole the cores of parallel batch workers).  One BLAS thread, unless the user
+# says otherwise; Simulation.run also limits BLAS to one thread while it runs (numpy may be loaded first).
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    _os.environ.setdefault(_var, "1")
 
 __version__ = "0.1.0"
 

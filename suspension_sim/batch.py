@@ -420,11 +420,11 @@ def _err_text(err: BaseException) -> str:
     return f"{type(err).__name__}: {err}{where}"[:2000]
 
 
-def _simulate(scs: list, time_limit: float | None) -> tuple[list, float]:
+def _simulate(scs: list, time_limit: float | None, keep_timeseries: bool = True) -> tuple[list, float]:
     from .simulation import Simulation
 
     t0 = time.perf_counter()
-    sim = Simulation(scs)
+    sim = Simulation(scs, log_channels="all" if keep_timeseries else "metrics")
     progress = None
     if time_limit:
         limit = time_limit * len(scs)
@@ -463,7 +463,7 @@ def _run_group(good: list, sw: Sweep) -> dict:
         return out
     t0 = time.perf_counter()
     try:
-        results, wall = _simulate([sc for _, sc in good], sw.time_limit)
+        results, wall = _simulate([sc for _, sc in good], sw.time_limit, sw.keep_timeseries)
     except Exception as e:  # noqa: BLE001
         if len(good) == 1:
             (run_id, values, h, seed), _ = good[0]

@@ -16,6 +16,8 @@ Logging happens every ``log_dt``.  A NaN or runaway state stops the run with
 """
 from __future__ import annotations
 
+import contextlib
+import os
 import time as _time
 from pathlib import Path
 from typing import Callable, Sequence
@@ -99,7 +101,8 @@ class SpeedProfile:
 class Simulation:
     """One ensemble simulation. Build with structurally equal scenarios, then :meth:`run`."""
 
-    def __init__(self, scenarios: Sequence[Scenario], source: str | None = None, n_threads: int = 1):
+    def __init__(self, scenarios: Sequence[Scenario], source: str | None = None, n_threads: int = 1,
+                 log_channels: str = "all"):
         if not scenarios:
             raise ValueError("no scenario")
         keys = {structure_key(s) for s in scenarios}
@@ -108,6 +111,9 @@ class Simulation:
                                 "sensors and timing", source=source)
         self.scenarios = list(scenarios)
         self.source = source
+        # "metrics": the compiled loop may log only the channels the metrics read (batches without time
+        # series); "all": every channel (the Python loop always logs everything)
+        self.log_channels = log_channels
         # callables hook(logger, j, t) run after each logged step j (time t), e.g. the live 3D viewer
         # (suspension_sim.viewer.attach_live_viewer); logger.ch[name][car, j] holds the step's log channels
         self.log_hooks: list = []
@@ -337,13 +343,14 @@ class Simulation:
 
         mode, self.loop_reason = plan(self)
         self.loop = mode or "python"
-        if mode is not None:
-            self.results = run_compiled(self, mode, progress)
+        with _one_blas_thread():
+            if mode is not None:
+                self.results = run_compiled(self, mode, progress)
+                return self.results
+            readings = self.start(progress)
+            while readings is not None:
+                readings = self.control_step(self.controller.step(self.t, readings))
             return self.results
-        readings = self.start(progress)
-        while readings is not None:
-            readings = self.control_step(self.controller.step(self.t, readings))
-        return self.results
 
     def start(self, progress: Callable[[float], None] | None = None) -> dict:
         """Step-wise use (e.g. reinforcement learning): reset and advance to the first control instant.
@@ -533,6 +540,24 @@ class Simulation:
                     "runaway state: the step may be too large for a stiff effect or actuator (try a smaller sim.dt), "
                     "the controller may be unstable, or the limits sim.max_displacement/max_velocity too tight")
             raise SimulationDiverged(t, state, hint, car=car if P.n > 1 else None)
+
+
+_BLAS_LIMITED = False
+
+
+def _one_blas_thread():
+    """One BLAS thread for the rest of the process, once (see suspension_sim/__init__.py: idle OpenBLAS
+    threads spin and double a run's CPU time); a no-op context manager."""
+    global _BLAS_LIMITED
+    if not _BLAS_LIMITED and os.environ.get("OPENBLAS_NUM_THREADS", "1") == "1":
+        _BLAS_LIMITED = True
+        try:
+            from threadpoolctl import threadpool_limits
+
+            threadpool_limits(1, user_api="blas")
+        except Exception:  # pragma: no cover - threadpoolctl missing or a BLAS it does not know
+            pass
+    return contextlib.nullcontext()
 
 
 _BAD = (("ctrl", mujoco.mjtWarning.mjWARN_BADCTRL), ("qacc", mujoco.mjtWarning.mjWARN_BADQACC),

@@ -32,7 +32,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-TEMPLATE_VERSION = 6
+TEMPLATE_VERSION = 10
 
 # PlantState fields a compiled sensor may read (Sensor.kernel_field), by code
 FIELDS = ("body_pos", "body_vel", "body_acc", "corner_body_pos", "corner_body_vel", "corner_body_acc",
@@ -128,7 +128,32 @@ def _cache_dir() -> Path:
         return d
 
 
-def generate_source(effects, actuator, controller) -> str:
+_FIELD_ARGS = ("i, jr, qpos, qvel, ten_len, ten_vel, acc, body_q, body_v, wheel_q, wheel_v, susp_t, tire_t, has_tire, "
+               "road_z, road_zd, kt, ct, Jb, F_act, F_teff, a_st, road_dof")
+
+
+def _sensor_code(sc: int, field: int, simple: bool) -> str:
+    """The compiled loop's lines for sensor ``sc`` (reading PlantState field code ``field``), for car i: a
+    sensor without delay, hold, noise or quantisation is read straight into y (its value + bias, as the
+    Python pipeline computes it); else through the ring buffer of the pipeline."""
+    val = f"field_value({field}, sens_cols[{sc}, q], sens_aux[{sc}], {_FIELD_ARGS})"
+    ind = " " * 20
+    if simple:
+        return (f"{ind}for q in range(sens_k[{sc}]):\n"
+                f"{ind}    y[i, sens_off[{sc}] + q] = {val} + sens_bias[{sc}]\n")
+    return (f"{ind}for q in range(sens_k[{sc}]):\n"
+            f"{ind}    ring[i, {sc}, sens_tmp[{sc}, 0], q] = {val}\n"
+            f"{ind}if sens_tmp[{sc}, 2]:\n"
+            f"{ind}    for q in range(sens_k[{sc}]):\n"
+            f"{ind}        val = ring[i, {sc}, sens_tmp[{sc}, 1], q] + sens_bias[{sc}]\n"
+            f"{ind}        if sens_std[{sc}] > 0:\n"
+            f"{ind}            val = val + noise[i, sens_tmp[{sc}, 3] + q]\n"
+            f"{ind}        if sens_q[{sc}] > 0:\n"
+            f"{ind}            val = np.rint(val / sens_q[{sc}]) * sens_q[{sc}]\n"
+            f"{ind}        y[i, sens_off[{sc}] + q] = val\n")
+
+
+def generate_source(effects, actuator, controller, sensors=()) -> str:
     """Python source of the loop for ``effects`` [(module, name, target)], ``actuator`` ((module, force),
     (module, advance)) and ``controller`` ((module, name) or None for the hybrid loop)."""
     imp = ["import numpy as np", "from numba import njit",
@@ -152,8 +177,10 @@ def generate_source(effects, actuator, controller) -> str:
         sig_logs.append(
             f"                for q in range(e{k}_sigj.shape[0]):\n"
             f"                    for jj in range(e{k}_lc.shape[1]):\n"
-            f"                        L[e{k}_lc[q, jj], i, jl] = e{k}_st[i, jj, e{k}_sigj[q]]\n")
+            f"                        L[i, jl, e{k}_lc[q, jj]] = e{k}_st[i, jj, e{k}_sigj[q]]\n")
     n_eff = len(effects)
+    sensor_block = "".join(_sensor_code(sc, f, simple) for sc, (f, simple) in enumerate(sensors)) or \
+        "                    pass\n"
     ctrl_block = ("                    ctrl_kernel(t, y[i], c_p[i], c_st[i], cmd[i])\n" if controller is not None
                   else "                    pass\n")
     body = f'''
@@ -187,16 +214,16 @@ def field_value(f, col, aux, i, jr, qpos, qvel, ten_len, ten_vel, acc, body_q, b
     if f == 10:
         return ten_vel[susp_t[i, col]]
     if f == 11:
-        return road_z[i, jr, col]
+        return road_z[jr, i, col]
     if f == 12:
-        return road_zd[i, jr, col]
+        return road_zd[jr, i, col]
     if f == 13:
         if has_tire:
             tl = ten_len[tire_t[i, col]]
             tv = ten_vel[tire_t[i, col]]
             if not road_dof:
-                tl = tl - road_z[i, jr, col]
-                tv = tv - road_zd[i, jr, col]
+                tl = tl - road_z[jr, i, col]
+                tv = tv - road_zd[jr, i, col]
             return -kt[i, col] * tl - ct[i, col] * tv + F_teff[i, col]
         return 0.0
     if f == 14:
@@ -213,12 +240,12 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
          sens_field, sens_cols, sens_aux, sens_off, sens_k, sens_delay, sens_hold, sens_bias, sens_std, sens_q,
          noise, noise_off, ring, sens_tmp, y, kc_arr, c_p, c_st,
          L, LC, lc_act, act_j, lc_y, lc_ctrl, ctrl_j{eargs}):
-    """Physics steps k0..k1-1 (road samples of step k at road_z[:, k - k_chunk0]).  Returns k1 when done,
+    """Physics steps k0..k1-1 (road samples of step k at road_z[k - k_chunk0]).  Returns k1 when done,
     k (>= 0) at a control instant that Python must handle (hybrid loop, after mj_step1 of step k: call again
     with resume=1 from k), or -(k + 1) when the state check at control instant k fails."""
     n, nc = road_q.shape
     nb = body_q.shape[1]
-    n_log = L.shape[2]
+    n_log = L.shape[1]
     k = k0
     skip = resume
     while k < k1:
@@ -227,10 +254,10 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
         if not skip:
             for i in range(n):
                 for c in range(nc):
-                    z = road_z[i, jr, c]
+                    z = road_z[jr, i, c]
                     if road_dof:
                         qpos[road_q[i, c]] = z
-                        qvel[road_v[i, c]] = road_zd[i, jr, c]
+                        qvel[road_v[i, c]] = road_zd[jr, i, c]
                         ctrl[road_servo[i, c]] = z
                     else:  # the road as the tire spring's rest length (Plant.place_road)
                         lsp[tire_t[i, c], 0] = rest0[i, c, 0] + z
@@ -262,21 +289,7 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                     sens_tmp[sc, 2] = 1 if kc % sens_hold[sc] == 0 else 0
                     sens_tmp[sc, 3] = noise_off[sc] + (kc // sens_hold[sc]) * sens_k[sc]
                 for i in range(n):
-                    for sc in range(ns):
-                        for q in range(sens_k[sc]):
-                            ring[i, sc, sens_tmp[sc, 0], q] = field_value(
-                                sens_field[sc], sens_cols[sc, q], sens_aux[sc], i, jr, qpos, qvel, ten_len, ten_vel,
-                                acc, body_q, body_v, wheel_q, wheel_v, susp_t, tire_t, has_tire, road_z, road_zd,
-                                kt, ct, Jb, F_act, F_teff, a_st, road_dof)
-                        if sens_tmp[sc, 2]:
-                            for q in range(sens_k[sc]):
-                                val = ring[i, sc, sens_tmp[sc, 1], q] + sens_bias[sc]
-                                if sens_std[sc] > 0:
-                                    val = val + noise[i, sens_tmp[sc, 3] + q]
-                                if sens_q[sc] > 0:
-                                    val = np.rint(val / sens_q[sc]) * sens_q[sc]
-                                y[i, sens_off[sc] + q] = val
-                    for c in range(nc):
+{sensor_block}                    for c in range(nc):
                         cmd[i, c] = 0.0
 {ctrl_block}                kc_arr[0] = kc + 1
         skip = False
@@ -296,15 +309,15 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                         tl = ten_len[tire_t[i, c]]
                         tv = ten_vel[tire_t[i, c]]
                         if not road_dof:
-                            tl = tl - road_z[i, jr, c]
-                            tv = tv - road_zd[i, jr, c]
+                            tl = tl - road_z[jr, i, c]
+                            tv = tv - road_zd[jr, i, c]
 {''.join(tire_calls) if tire_calls else "                        pass" + chr(10)}{''.join(susp_calls)}                    F_eff[i, c] = f
                     F_teff[i, c] = ft
                     ctrl[eff_s[i, c]] = f
                     if has_tire and road_dof:
                         ctrl[eff_t[i, c]] = ft
                 if not road_dof:
-                    ctrl[eff_t[i, c]] = F_teff[i, c] + tire_ct[i, c] * road_zd[i, jr, c]
+                    ctrl[eff_t[i, c]] = F_teff[i, c] + tire_ct[i, c] * road_zd[jr, i, c]
                 ctrl[act[i, c]] = Fa
         log_now = k % log_every == 0
         jl = k // log_every
@@ -312,33 +325,33 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
             for i in range(n):
                 for b in range(nb):
                     if LC[0, b] >= 0:
-                        L[LC[0, b], i, jl] = qpos[body_q[i, b]]
-                        L[LC[1, b], i, jl] = qvel[body_v[i, b]]
+                        L[i, jl, LC[0, b]] = qpos[body_q[i, b]]
+                        L[i, jl, LC[1, b]] = qvel[body_v[i, b]]
                 for c in range(nc):
-                    L[LC[3, c], i, jl] = ten_len[susp_t[i, c]]
-                    L[LC[4, c], i, jl] = ten_vel[susp_t[i, c]]
+                    L[i, jl, LC[3, c]] = ten_len[susp_t[i, c]]
+                    L[i, jl, LC[4, c]] = ten_vel[susp_t[i, c]]
                     if has_tire:
-                        L[LC[5, c], i, jl] = qpos[wheel_q[i, c]]
-                        L[LC[6, c], i, jl] = qvel[wheel_v[i, c]]
+                        L[i, jl, LC[5, c]] = qpos[wheel_q[i, c]]
+                        L[i, jl, LC[6, c]] = qvel[wheel_v[i, c]]
                         tl = ten_len[tire_t[i, c]]
                         tv = ten_vel[tire_t[i, c]]
                         if not road_dof:
-                            tl = tl - road_z[i, jr, c]
-                            tv = tv - road_zd[i, jr, c]
-                        L[LC[7, c], i, jl] = -kt[i, c] * tl - ct[i, c] * tv + F_teff[i, c]
-                        L[LC[8, c], i, jl] = F_teff[i, c]
-                    L[LC[9, c], i, jl] = road_z[i, jr, c]
-                    L[LC[10, c], i, jl] = road_zd[i, jr, c]
-                    L[LC[11, c], i, jl] = cmd[i, c]
-                    L[LC[12, c], i, jl] = F_act[i, c]
-                    L[LC[13, c], i, jl] = F_eff[i, c]
+                            tl = tl - road_z[jr, i, c]
+                            tv = tv - road_zd[jr, i, c]
+                        L[i, jl, LC[7, c]] = -kt[i, c] * tl - ct[i, c] * tv + F_teff[i, c]
+                        L[i, jl, LC[8, c]] = F_teff[i, c]
+                    L[i, jl, LC[9, c]] = road_z[jr, i, c]
+                    L[i, jl, LC[10, c]] = road_zd[jr, i, c]
+                    L[i, jl, LC[11, c]] = cmd[i, c]
+                    L[i, jl, LC[12, c]] = F_act[i, c]
+                    L[i, jl, LC[13, c]] = F_eff[i, c]
                 for q in range(act_j.shape[0]):
                     for c in range(nc):
-                        L[lc_act[q, c], i, jl] = a_st[i, c, act_j[q]]
+                        L[i, jl, lc_act[q, c]] = a_st[i, c, act_j[q]]
                 for q in range(lc_y.shape[0]):
-                    L[lc_y[q], i, jl] = y[i, q]
+                    L[i, jl, lc_y[q]] = y[i, q]
                 for q in range(lc_ctrl.shape[0]):
-                    L[lc_ctrl[q], i, jl] = c_st[i, ctrl_j[q]]
+                    L[i, jl, lc_ctrl[q]] = c_st[i, ctrl_j[q]]
 {''.join(sig_logs)}        need_acc = log_now or (k + 1) % sub == 0
         if need_acc:
             for i in range(n):
@@ -359,10 +372,10 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
             for i in range(n):
                 for b in range(nb):
                     if LC[2, b] >= 0:
-                        L[LC[2, b], i, jl] = acc[body_v[i, b]]
+                        L[i, jl, LC[2, b]] = acc[body_v[i, b]]
                 if has_tire:
                     for c in range(nc):
-                        L[LC[14, c], i, jl] = acc[wheel_v[i, c]]
+                        L[i, jl, LC[14, c]] = acc[wheel_v[i, c]]
         for i in range(n):
             for c in range(nc):
                 act_advance(cmd[i, c], sv[i, c, 0], sv[i, c, 1], t, dt, a_p[i, c], a_st[i, c])
@@ -372,12 +385,12 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
     return "\n".join(imp) + "\n" + body
 
 
-def load_module(effects, actuator, controller):
+def load_module(effects, actuator, controller, sensors=()):
     """The compiled loop module for this combination (generated, written and imported once per process)."""
-    key = (tuple(effects), actuator, controller)
+    key = (tuple(effects), actuator, controller, tuple(sensors))
     mod = _MODULES.get(key)
     if mod is None:
-        src = generate_source(effects, actuator, controller)
+        src = generate_source(effects, actuator, controller, sensors)
         h = hashlib.sha256((_source_digest() + src).encode()).hexdigest()[:20]
         name = f"suspension_sim_loop_{h}"
         path = _cache_dir() / f"{name}.py"
@@ -461,6 +474,35 @@ class _Layout:
         if P.has_tire:
             self._corner("wheel_acc", 14)
 
+    def keep_only(self, keep) -> None:
+        """Log only the channels in ``keep`` (a batch without time series needs only what the metrics read):
+        the others are written to one scratch column, the last."""
+        if keep is None:
+            return
+        kept = [j for j, name in enumerate(self.names) if name in keep]
+        remap = np.full(len(self.names), len(kept), dtype=np.int64)
+        remap[kept] = np.arange(len(kept))
+        self.names = [self.names[j] for j in kept] + ["__scratch__"]
+        for attr in ("LC", "lc_act", "lc_y", "lc_ctrl"):
+            a = getattr(self, attr)
+            setattr(self, attr, np.where(a >= 0, remap[np.maximum(a, 0)], a))
+        self.eff_lc = [remap[a] for a in self.eff_lc]
+
+
+def metric_channels(suffixes) -> set | None:
+    """The log channels the registered metrics read (their declared ``ensemble_channels``), or None when a
+    metric does not declare them (then everything is logged)."""
+    from ..registry import METRICS
+
+    out = set()
+    for _, fn in METRICS.items():
+        chans = getattr(fn, "ensemble_channels", None)
+        if getattr(fn, "ensemble", None) is None or chans is None:
+            return None
+        for c in chans:
+            out.update(c.format(s=s) for s in suffixes) if "{s}" in c else out.add(c)
+    return out
+
 
 def run(sim, mode: str, progress=None) -> list:
     """Run ``sim`` with the compiled loop (``mode`` from :func:`plan`); the Results of the Python loop."""
@@ -506,7 +548,6 @@ def run(sim, mode: str, progress=None) -> list:
 
     ctrl = sim.controller
     controller = _kernel_ref(type(ctrl).kernel) if full else None
-    mod = load_module(effects, actuator, controller)
 
     # sensors (compiled pipeline, full mode) ------------------------------------------------------------
     ns = len(sim.sensors)
@@ -562,15 +603,21 @@ def run(sim, mode: str, progress=None) -> list:
         c_p, c_st, ctrl_widths, ctrl_j = np.zeros((n, 1)), np.zeros((n, 0)), [], np.zeros(0, np.int64)
 
     sens_tmp = np.zeros((max(ns, 1), 4), np.int64)
+    sensor_code = [(int(sens["field"][j]), bool(sens["delay"][j] == 0 and sens["hold"][j] == 1 and sens["std"][j] == 0
+                                                and sens["q"][j] == 0)) for j in range(ns)] if full else []
+    mod = load_module(effects, actuator, controller, sensor_code)
     n_log = sim.n_steps // sim.log_every
     layout = _Layout(sim)
     y = np.zeros((n, max(ytot, 1)))
 
     def make_log():
         layout.add_rest(sim, act_names, reading_widths, ctrl_widths, eff_sigs)
-        # channel-major (channel, car, log step): each channel is one contiguous (n_cars, n_log) array for the
-        # metrics; every entry is written by the loop
-        L = np.empty((len(layout.names), n, n_log))
+        if getattr(sim, "log_channels", "all") == "metrics":
+            layout.keep_only(metric_channels(P.suffixes))
+        # car-major (car, log step, channel): a log step writes one contiguous row per car (channel-major
+        # writes touch a cache line per channel: ~0.2 us per car-step with 30 channels); the metrics read
+        # the strided channel views.  Every entry is written by the loop.
+        L = np.empty((n, n_log, len(layout.names)))
         eff_full = []
         for args, lc in zip(eff_args, layout.eff_lc):
             eff_full += args + [lc]
@@ -579,7 +626,7 @@ def run(sim, mode: str, progress=None) -> list:
     if full:
         L, eff_full = make_log()
     else:  # the layout needs the first readings and controller signals: built at the first control instant
-        L = np.zeros((0, n, 0))
+        L = np.zeros((n, 0, 0))
         eff_full = []
         for args in eff_args:
             eff_full += args + [np.zeros((len(args[3]), int(args[2].max()) + 1 if args[2].size else 0), np.int64)]
@@ -623,7 +670,7 @@ def run(sim, mode: str, progress=None) -> list:
     logger.t[:] = (np.arange(n_log) * sim.log_every) * sim.dt
 
     def attach_log():
-        logger.ch = {name: L[j] for j, name in enumerate(layout.names)}
+        logger.ch = {name: L[:, :, j] for j, name in enumerate(layout.names) if name != "__scratch__"}
 
     if full:
         attach_log()
@@ -632,7 +679,9 @@ def run(sim, mode: str, progress=None) -> list:
     hooks = list(sim.log_hooks)
     for k_chunk0 in range(0, sim.n_steps, chunk):
         k1 = min(k_chunk0 + chunk, sim.n_steps)
-        road_z, road_zd = (_f64(a) for a in sim._road_chunk(k_chunk0, k1))
+        # step-major (step, car, corner): one step's road for all cars is contiguous
+        road_z, road_zd = (np.ascontiguousarray(a.transpose(1, 0, 2), dtype=np.float64)
+                           for a in sim._road_chunk(k_chunk0, k1))
         k, resume = k_chunk0, 0
         while True:
             r = call(road_z, road_zd, k_chunk0, k, k1, resume)
@@ -648,7 +697,7 @@ def run(sim, mode: str, progress=None) -> list:
             t = k * sim.dt
             jr = k - k_chunk0
             sim._last_forces = (F_act.copy(), F_eff.copy(), F_teff.copy())
-            state = sim._state(t, road_z[:, jr, :], road_zd[:, jr, :], acc, F_act.copy(), F_teff.copy())
+            state = sim._state(t, road_z[jr].copy(), road_zd[jr].copy(), acc, F_act.copy(), F_teff.copy())
             states = {nm: a_st[:, :, a_idx[nm]].copy() for nm in act_names}
             states["force"] = F_act.copy()
             state.actuator_states = states
@@ -664,7 +713,7 @@ def run(sim, mode: str, progress=None) -> list:
             cmd[:] = command
             sig = {nm: np.asarray(v, dtype=float).reshape(n, -1) for nm, v in ctrl.signals().items()}
             rd = [(nm, np.asarray(v).reshape(n, -1)) for nm, v in readings.items() if not nm.startswith("state.")]
-            if L.shape[0] == 0:  # first control instant: now the log layout is known
+            if L.shape[2] == 0:  # first control instant: now the log layout is known
                 reading_widths[:] = [(nm, v.shape[1]) for nm, v in rd]
                 ctrl_widths[:] = [(nm, v.shape[1]) for nm, v in sig.items()]
                 y = np.zeros((n, max(1, sum(w for _, w in reading_widths))))
