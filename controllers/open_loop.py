@@ -41,6 +41,7 @@ import numpy as np
 from pydantic import Field, model_validator
 from scipy.signal import chirp, max_len_seq
 
+from suspension_sim.compiled.numpy_order import pairwise_sum
 from suspension_sim.components import Params
 from suspension_sim.errors import ScenarioError
 from suspension_sim.registry import CONTROLLERS
@@ -150,71 +151,6 @@ _HEADER = 16
 
 
 @numba.njit(cache=True)
-def _pairwise_block(a, lo, n):
-    """numpy's pairwise summation of a[lo:lo+n] for n <= 128 (8 accumulators), same additions, same order."""
-    if n < 8:
-        res = -0.0
-        for i in range(n):
-            res += a[lo + i]
-        return res
-    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
-    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
-    i = 8
-    while i < n - (n % 8):
-        r0 += a[lo + i]
-        r1 += a[lo + i + 1]
-        r2 += a[lo + i + 2]
-        r3 += a[lo + i + 3]
-        r4 += a[lo + i + 4]
-        r5 += a[lo + i + 5]
-        r6 += a[lo + i + 6]
-        r7 += a[lo + i + 7]
-        i += 8
-    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while i < n:
-        res += a[lo + i]
-        i += 1
-    return res
-
-
-@numba.njit(cache=True)
-def _pairwise_sum(a, lo, n):
-    """numpy's pairwise summation of a[lo:lo+n] (np.sum along a contiguous axis): blocks of <= 128 summed
-    by _pairwise_block, longer runs split in halves (multiples of 8) as numpy does; numpy's recursion is
-    unrolled on an explicit stack (a recursive function does not survive numba's cache)."""
-    if n <= 128:
-        return _pairwise_block(a, lo, n)
-    s_lo = np.empty(64, np.int64)
-    s_n = np.empty(64, np.int64)
-    s_stage = np.empty(64, np.int64)
-    s_acc = np.empty(64)
-    depth = 0
-    s_lo[0], s_n[0], s_stage[0] = lo, n, 0
-    while True:
-        if s_n[depth] <= 128:
-            res = _pairwise_block(a, s_lo[depth], s_n[depth])
-            depth -= 1
-            while depth >= 0:
-                if s_stage[depth] == 0:  # left half done: keep it, go right
-                    s_acc[depth] = res
-                    s_stage[depth] = 1
-                    n2 = s_n[depth] // 2
-                    n2 -= n2 % 8
-                    depth += 1
-                    s_lo[depth], s_n[depth], s_stage[depth] = s_lo[depth - 1] + n2, s_n[depth - 1] - n2, 0
-                    break
-                res = s_acc[depth] + res  # both halves done
-                depth -= 1
-            if depth < 0:
-                return res
-        else:
-            n2 = s_n[depth] // 2
-            n2 -= n2 % 8
-            depth += 1
-            s_lo[depth], s_n[depth], s_stage[depth] = s_lo[depth - 1], n2, 0
-
-
-@numba.njit(cache=True)
 def _chirp(t, f0, t1, f1, method, phi_deg):
     """scipy.signal.chirp(t, f0, t1, f1, method, phi) for a scalar t, in scipy's order of operations."""
     pi = np.pi
@@ -267,7 +203,7 @@ def _kernel(t, y, p, st, u):
     elif sig == 3:
         for j in range(n):
             st[1 + j] = p[d + n + j] * np.sin(2 * np.pi * p[d + j] * taum + p[d + 2 * n + j])
-        st[0] = _pairwise_sum(st, 1, n)
+        st[0] = pairwise_sum(st, 1, n)
     elif sig == 4:
         st[0] = _chirp(taum, p[_H_F0], p[_H_T1], p[_H_F1], int(p[_H_METHOD]), p[_H_PHASE] * (180.0 / np.pi) - 90.0)
     elif sig == 5:

@@ -48,6 +48,7 @@ import numba
 import numpy as np
 from pydantic import Field
 
+from suspension_sim.compiled.numpy_order import pairwise_sum
 from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
@@ -109,71 +110,6 @@ _NP = 14  # then the rule centres m_k (nk), m_b (nb), then per corner λ_k/M, λ
 
 
 @numba.njit(cache=True)
-def _pairwise_block(a, lo, n):
-    """numpy's pairwise summation of a[lo:lo+n] for n <= 128 (8 accumulators), same additions, same order."""
-    if n < 8:
-        res = -0.0
-        for i in range(n):
-            res += a[lo + i]
-        return res
-    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
-    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
-    i = 8
-    while i < n - (n % 8):
-        r0 += a[lo + i]
-        r1 += a[lo + i + 1]
-        r2 += a[lo + i + 2]
-        r3 += a[lo + i + 3]
-        r4 += a[lo + i + 4]
-        r5 += a[lo + i + 5]
-        r6 += a[lo + i + 6]
-        r7 += a[lo + i + 7]
-        i += 8
-    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-    while i < n:
-        res += a[lo + i]
-        i += 1
-    return res
-
-
-@numba.njit(cache=True)
-def _pairwise_sum(a, lo, n):
-    """numpy's pairwise summation of a[lo:lo+n] (np.sum along a contiguous axis): blocks of <= 128 summed
-    by _pairwise_block, longer runs split in halves (multiples of 8) as numpy does; numpy's recursion is
-    unrolled on an explicit stack (a recursive function does not survive numba's cache)."""
-    if n <= 128:
-        return _pairwise_block(a, lo, n)
-    s_lo = np.empty(64, np.int64)
-    s_n = np.empty(64, np.int64)
-    s_stage = np.empty(64, np.int64)
-    s_acc = np.empty(64)
-    depth = 0
-    s_lo[0], s_n[0], s_stage[0] = lo, n, 0
-    while True:
-        if s_n[depth] <= 128:
-            res = _pairwise_block(a, s_lo[depth], s_n[depth])
-            depth -= 1
-            while depth >= 0:
-                if s_stage[depth] == 0:  # left half done: keep it, go right
-                    s_acc[depth] = res
-                    s_stage[depth] = 1
-                    n2 = s_n[depth] // 2
-                    n2 -= n2 % 8
-                    depth += 1
-                    s_lo[depth], s_n[depth], s_stage[depth] = s_lo[depth - 1] + n2, s_n[depth - 1] - n2, 0
-                    break
-                res = s_acc[depth] + res  # both halves done
-                depth -= 1
-            if depth < 0:
-                return res
-        else:
-            n2 = s_n[depth] // 2
-            n2 -= n2 % 8
-            depth += 1
-            s_lo[depth], s_n[depth], s_stage[depth] = s_lo[depth - 1], n2, 0
-
-
-@numba.njit(cache=True)
 def _basis(u, nr, memb, alpha_two, m, lo_m, h, psi, lo):
     """``basis`` for a scalar u into psi[lo:lo+nr] (psi[lo+nr:lo+2nr] is scratch); m[lo_m:lo_m+nr] the rule
     centres, h the half-width (triangles) or σ (gaussians)."""
@@ -199,7 +135,7 @@ def _basis(u, nr, memb, alpha_two, m, lo_m, h, psi, lo):
             psi[w] = 1.0
         if u >= m[lo_m + nr - 1]:
             psi[w + nr - 1] = 1.0
-    s = _pairwise_sum(psi, w, nr)
+    s = pairwise_sum(psi, w, nr)
     s = s if (s >= 1e-300 or s != s) else 1e-300
     for i in range(nr):
         psi[lo + i] = psi[w + i] / s
@@ -240,10 +176,10 @@ def _kernel(t, y, p, st, u):
             dx0, dv0 = st[o_dx0 + c], st[o_dv0 + c]
             for i in range(nk):
                 st[o_tmp + i] = st[o_bk + c * nk + i] * st[o_pk0 + 2 * c * nk + i]
-            fk0 = _pairwise_sum(st, o_tmp, nk)
+            fk0 = pairwise_sum(st, o_tmp, nk)
             for i in range(nb):
                 st[o_tmp + i] = st[o_bb + c * nb + i] * st[o_pb0 + 2 * c * nb + i]
-            fb0 = _pairwise_sum(st, o_tmp, nb)
+            fb0 = pairwise_sum(st, o_tmp, nb)
             drive = (fk0 * dx0 + fb0 * dv0 + F_prev) / M
             v_hat = e * st[o_vhat + c] + (1 - e) * st[o_v0 + c] + drive * dt
             st[o_vhat + c] = v_hat
@@ -257,10 +193,10 @@ def _kernel(t, y, p, st, u):
         _basis(dv, nb, int(p[_P_MEMBB]), p[_P_AB], p, m0 + nk, p[_P_HB], st, o_pb0 + 2 * c * nb)
         for i in range(nk):
             st[o_tmp + i] = st[o_bk + c * nk + i] * st[o_pk0 + 2 * c * nk + i]
-        fk = _pairwise_sum(st, o_tmp, nk)
+        fk = pairwise_sum(st, o_tmp, nk)
         for i in range(nb):
             st[o_tmp + i] = st[o_bb + c * nb + i] * st[o_pb0 + 2 * c * nb + i]
-        fb = _pairwise_sum(st, o_tmp, nb)
+        fb = pairwise_sum(st, o_tmp, nb)
         F = (p[_P_KREF] - fk) * dx + (p[_P_BREF] - fb) * dv
         st[o_fk + c] = fk
         st[o_fb + c] = fb

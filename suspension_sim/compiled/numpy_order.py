@@ -1,0 +1,70 @@
+"""numba versions of numpy reductions that add in numpy's own order, so compiled kernels reproduce numpy
+results bit for bit (see the kernel protocol in suspension_sim/compiled/__init__.py)."""
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+@numba.njit(cache=True)
+def pairwise_block(a, lo, n):
+    """numpy's pairwise summation of a[lo:lo+n] for n <= 128 (8 accumulators), same additions, same order."""
+    if n < 8:
+        res = -0.0
+        for i in range(n):
+            res += a[lo + i]
+        return res
+    r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+    r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+    i = 8
+    while i < n - (n % 8):
+        r0 += a[lo + i]
+        r1 += a[lo + i + 1]
+        r2 += a[lo + i + 2]
+        r3 += a[lo + i + 3]
+        r4 += a[lo + i + 4]
+        r5 += a[lo + i + 5]
+        r6 += a[lo + i + 6]
+        r7 += a[lo + i + 7]
+        i += 8
+    res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+    while i < n:
+        res += a[lo + i]
+        i += 1
+    return res
+
+
+@numba.njit(cache=True)
+def pairwise_sum(a, lo, n):
+    """numpy's pairwise summation of a[lo:lo+n] (np.sum along a contiguous axis): blocks of <= 128 summed
+    by pairwise_block, longer runs split in halves (multiples of 8) as numpy does; numpy's recursion is
+    unrolled on an explicit stack (a recursive function does not survive numba's cache)."""
+    if n <= 128:
+        return pairwise_block(a, lo, n)
+    s_lo = np.empty(64, np.int64)
+    s_n = np.empty(64, np.int64)
+    s_stage = np.empty(64, np.int64)
+    s_acc = np.empty(64)
+    depth = 0
+    s_lo[0], s_n[0], s_stage[0] = lo, n, 0
+    while True:
+        if s_n[depth] <= 128:
+            res = pairwise_block(a, s_lo[depth], s_n[depth])
+            depth -= 1
+            while depth >= 0:
+                if s_stage[depth] == 0:  # left half done: keep it, go right
+                    s_acc[depth] = res
+                    s_stage[depth] = 1
+                    n2 = s_n[depth] // 2
+                    n2 -= n2 % 8
+                    depth += 1
+                    s_lo[depth], s_n[depth], s_stage[depth] = s_lo[depth - 1] + n2, s_n[depth - 1] - n2, 0
+                    break
+                res = s_acc[depth] + res  # both halves done
+                depth -= 1
+            if depth < 0:
+                return res
+        else:
+            n2 = s_n[depth] // 2
+            n2 -= n2 % 8
+            depth += 1
+            s_lo[depth], s_n[depth], s_stage[depth] = s_lo[depth - 1], n2, 0
