@@ -163,3 +163,23 @@ def test_progress_and_log_hooks_see_every_log_step(monkeypatch):
     assert np.allclose([t for _, t, _ in seen], res[0].ts["t"].to_numpy())
     assert np.array_equal([z for _, _, z in seen], res[0].ts["body_z"].to_numpy())
     assert prog[-1] == 1.0
+
+
+def test_controller_without_kernel_data_runs_hybrid(monkeypatch):
+    """A controller class with a kernel that declines a setting (kernel_data raises NotImplementedError) is
+    called from Python at control instants, with the same results."""
+    from controllers.skyhook import Skyhook
+    from suspension_sim.registry import CONTROLLERS
+
+    if "_test_declines_kernel" not in CONTROLLERS._items:
+        @CONTROLLERS.register("_test_declines_kernel")
+        class Declines(Skyhook):
+            def kernel_data(self):
+                raise NotImplementedError("not for this setting")
+
+    scs = _bench_like(2, controller={"type": "_test_declines_kernel", "params": {"c_sky": 2000.0}})
+    sim_c, rc = _run(scs, True, monkeypatch)
+    _, rp = _run(scs, False, monkeypatch)
+    assert sim_c.loop == "hybrid" and "not for this setting" in sim_c.loop_reason
+    for a, b in zip(rp, rc):
+        assert a.ts.equals(b.ts)

@@ -522,6 +522,13 @@ def run(sim, mode: str, progress=None) -> list:
         e.reset()
     for ch in sim.sensors:
         ch.reset()
+    ctrl = sim.controller
+    if full:
+        try:  # a controller may have no kernel for some settings (e.g. open loop's random signal)
+            ctrl_data = ctrl.kernel_data()
+        except NotImplementedError as exc:
+            full, sim.loop = False, "hybrid"
+            sim.loop_reason = f"controller {ctrl.name!r}: {exc}" if str(exc) else f"controller {ctrl.name!r} has no kernel here"
 
     # component data ----------------------------------------------------------------------------------
     effects, eff_args, eff_sigs = [], [], []
@@ -546,7 +553,6 @@ def run(sim, mode: str, progress=None) -> list:
         raise RuntimeError(f"actuator {act.name!r}: kernel_states() lacks {missing}")
     act_j = np.array([a_idx[nm] for nm in act_names], dtype=np.int64)
 
-    ctrl = sim.controller
     controller = _kernel_ref(type(ctrl).kernel) if full else None
 
     # sensors (compiled pipeline, full mode) ------------------------------------------------------------
@@ -594,7 +600,7 @@ def run(sim, mode: str, progress=None) -> list:
         ytot = off
         maxd = int(sens["delay"].max()) if ns else 0
         ring = np.zeros((n, max(ns, 1), maxd + 1, maxk))
-        c_p, c_st = (_f64(x) for x in ctrl.kernel_data())
+        c_p, c_st = (_f64(x) for x in ctrl_data)
         csig = ctrl.kernel_signals()
         ctrl_widths = [(nm, b - a) for nm, (a, b) in csig.items()]
         ctrl_j = np.array([j for a, b in csig.values() for j in range(a, b)], dtype=np.int64)

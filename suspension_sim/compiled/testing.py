@@ -89,8 +89,8 @@ def check_controller(sim) -> float:
     out = np.zeros(kn.ctx.n_corners)
     for t, y, u, sp in log:
         for i in range(kn.ctx.n_cars):
-            yi = np.ascontiguousarray(np.concatenate([np.asarray(y[nm], dtype=float).reshape(kn.ctx.n_cars, -1)[i]
-                                                      for nm in names]))
+            yi = np.ascontiguousarray(np.concatenate([np.zeros(0)] + [
+                np.asarray(y[nm], dtype=float).reshape(kn.ctx.n_cars, -1)[i] for nm in names]))
             out[:] = 0.0
             kn.kernel(t, yi, p[i], st[i], out)
             worst = max(worst, _maxdiff(u[i], out))
