@@ -124,14 +124,22 @@ def test_hybrid_loop_with_full_state_access(monkeypatch):
         assert a.ts.equals(b.ts)
 
 
-def test_python_fallback_and_switch(monkeypatch):
+def test_python_fallback_switch(monkeypatch):
     sc = _bench_like(1)[0]
     sim, _ = _run([sc], False, monkeypatch)
     assert sim.loop == "python" and "SUSPENSION_SIM_COMPILED" in sim.loop_reason
-    raw = _raw(ROOT / "scenarios" / "quickstart.yaml", 0.2)
+
+
+def test_rk4_compiled_is_bit_identical(monkeypatch):
+    """RK4 keeps the road plates (driven by a force within the stages) and reads the acceleration from
+    mj_forwardSkip: the compiled loop does the same calls."""
+    raw = _raw(ROOT / "scenarios" / "quickstart.yaml", 0.5)
     raw["sim"]["integrator"] = "RK4"
-    sim, _ = _run([parse_scenario(raw)], True, monkeypatch)
-    assert sim.loop == "python" and "RK4" in sim.loop_reason
+    scs = [parse_scenario(raw)]
+    sim_c, rc = _run(scs, True, monkeypatch)
+    _, rp = _run(scs, False, monkeypatch)
+    assert sim_c.loop == "full" and sim_c.plant.road_dof
+    assert rp[0].ts.equals(rc[0].ts)
 
 
 def test_divergence_is_reported_at_the_same_time(monkeypatch):

@@ -8,7 +8,7 @@
   Python: the compiled loop returns at each control instant, Python reads the sensors and calls the
   controller exactly as the Python loop does, and the compiled loop goes on with the command;
 - ``None`` (with the reason): the Python loop of ``simulation.py`` runs (an effect or actuator without a
-  kernel, RK4, time-varying parameters, manoeuvres, or ``SUSPENSION_SIM_COMPILED=0``).
+  kernel, time-varying parameters, manoeuvres, or ``SUSPENSION_SIM_COMPILED=0``).
 
 For each combination of component kernels a small module is generated (the loop with the kernels' calls
 written out, so numba inlines them) into a cache folder, and compiled with ``cache=True``: the first run of a
@@ -32,7 +32,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-TEMPLATE_VERSION = 10
+TEMPLATE_VERSION = 11
 
 # PlantState fields a compiled sensor may read (Sensor.kernel_field), by code
 FIELDS = ("body_pos", "body_vel", "body_acc", "corner_body_pos", "corner_body_vel", "corner_body_acc",
@@ -64,8 +64,6 @@ def plan(sim) -> tuple[str | None, str]:
 
     if mj.load() is not None:
         return None, mj.load()
-    if sim.rk4:
-        return None, "integrator RK4"
     if sim.variations:
         return None, "time-varying parameters"
     if sim.maneuver is not None:
@@ -157,7 +155,7 @@ def generate_source(effects, actuator, controller, sensors=()) -> str:
     """Python source of the loop for ``effects`` [(module, name, target)], ``actuator`` ((module, force),
     (module, advance)) and ``controller`` ((module, name) or None for the hybrid loop)."""
     imp = ["import numpy as np", "from numba import njit",
-           "from suspension_sim.compiled.mj import mj_step1, mj_step2"]
+           "from suspension_sim.compiled.mj import mj_step1, mj_step2, mj_step, mj_forwardSkip"]
     for k, (mod, name, _) in enumerate(effects):
         imp.append(f"from {mod} import {name} as eff{k}")
     (am, af), (am2, aa) = actuator
@@ -235,7 +233,8 @@ def field_value(f, col, aux, i, jr, qpos, qvel, ten_len, ten_vel, acc, body_q, b
 def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
          road_q, road_v, road_servo, susp_t, tire_t, eff_s, eff_t, act, wheel_q, wheel_v, body_q, body_v,
          free_q, free_v, has_tire, has_effects, has_tire_effects, kt, ct, Jb, road_dof, lsp, rest0, tire_ct,
-         road_z, road_zd, k_chunk0, k0, k1, resume, full_control, n_steps, sub, log_every, dt, lim_x, lim_v,
+         rk4, qfrc, qacc, road_mass,
+         road_z, road_zd, road_zdd, k_chunk0, k0, k1, resume, full_control, n_steps, sub, log_every, dt, lim_x, lim_v,
          cmd, F_act, F_eff, F_teff, acc, v_before, sv, a_p, a_st,
          sens_field, sens_cols, sens_aux, sens_off, sens_k, sens_delay, sens_hold, sens_bias, sens_std, sens_q,
          noise, noise_off, ring, sens_tmp, y, kc_arr, c_p, c_st,
@@ -259,6 +258,8 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                         qpos[road_q[i, c]] = z
                         qvel[road_v[i, c]] = road_zd[jr, i, c]
                         ctrl[road_servo[i, c]] = z
+                        if rk4:  # the heavy plates get the road's acceleration within the RK4 stages
+                            qfrc[road_v[i, c]] = road_mass * road_zdd[jr, i, c]
                     else:  # the road as the tire spring's rest length (Plant.place_road)
                         lsp[tire_t[i, c], 0] = rest0[i, c, 0] + z
                         lsp[tire_t[i, c], 1] = rest0[i, c, 1] + z
@@ -353,15 +354,26 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                 for q in range(lc_ctrl.shape[0]):
                     L[i, jl, lc_ctrl[q]] = c_st[i, ctrl_j[q]]
 {''.join(sig_logs)}        need_acc = log_now or (k + 1) % sub == 0
-        if need_acc:
+        if rk4:
+            if need_acc:  # the acceleration at the step start, with this step's forces
+                mj_forwardSkip(m_addr, d_addr, 2, 1)
+                for i in range(n):
+                    for b in range(nb):
+                        acc[body_v[i, b]] = qacc[body_v[i, b]]
+                    if has_tire:
+                        for c in range(nc):
+                            acc[wheel_v[i, c]] = qacc[wheel_v[i, c]]
+            mj_step(m_addr, d_addr)
+        elif need_acc:
             for i in range(n):
                 for b in range(nb):
                     v_before[body_v[i, b]] = qvel[body_v[i, b]]
                 if has_tire:
                     for c in range(nc):
                         v_before[wheel_v[i, c]] = qvel[wheel_v[i, c]]
-        mj_step2(m_addr, d_addr)
-        if need_acc:
+        if not rk4:
+            mj_step2(m_addr, d_addr)
+        if need_acc and not rk4:
             for i in range(n):
                 for b in range(nb):
                     acc[body_v[i, b]] = (qvel[body_v[i, b]] - v_before[body_v[i, b]]) / dt
@@ -661,10 +673,11 @@ def run(sim, mode: str, progress=None) -> list:
              _i64(P.act), _i64(P.wheel_q), _i64(P.wheel_v), _i64(P.body_q), _i64(P.body_v),
              _i64(P.free_q), _i64(P.free_v), bool(P.has_tire), bool(sim.effects), bool(has_tire_eff), kt, ct, Jb,
              bool(P.road_dof), m.tendon_lengthspring, _f64(P.tire_rest0 if not P.road_dof else np.zeros((n, nc, 2))),
-             _f64(P.tire_ct if not P.road_dof else np.zeros((n, nc))))
+             _f64(P.tire_ct if not P.road_dof else np.zeros((n, nc))),
+             bool(sim.rk4), d.qfrc_applied, d.qacc, float(P.road_mass))
 
-    def call(road_z, road_zd, k_chunk0, k, k1, resume):
-        return mod.loop(*fixed, road_z, road_zd, k_chunk0, k, k1, resume, full, sim.n_steps, sim.sub,
+    def call(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume):
+        return mod.loop(*fixed, road_z, road_zd, road_zdd, k_chunk0, k, k1, resume, full, sim.n_steps, sim.sub,
                         sim.log_every, sim.dt, float(sc0.max_displacement), float(sc0.max_velocity),
                         cmd, F_act, F_eff, F_teff, acc, v_before, sv, a_p, a_st,
                         sens["field"], sens_cols, sens["aux"], sens["off"], sens["k"], sens["delay"],
@@ -686,11 +699,12 @@ def run(sim, mode: str, progress=None) -> list:
     for k_chunk0 in range(0, sim.n_steps, chunk):
         k1 = min(k_chunk0 + chunk, sim.n_steps)
         # step-major (step, car, corner): one step's road for all cars is contiguous
-        road_z, road_zd = (np.ascontiguousarray(a.transpose(1, 0, 2), dtype=np.float64)
-                           for a in sim._road_chunk(k_chunk0, k1))
+        chunks = [np.ascontiguousarray(a.transpose(1, 0, 2), dtype=np.float64) for a in sim._road_chunk(k_chunk0, k1)]
+        road_z, road_zd = chunks[0], chunks[1]
+        road_zdd = chunks[2] if sim.rk4 else road_z  # RK4: the plates' acceleration (unused otherwise)
         k, resume = k_chunk0, 0
         while True:
-            r = call(road_z, road_zd, k_chunk0, k, k1, resume)
+            r = call(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume)
             if r == k1:
                 break
             if r < 0:

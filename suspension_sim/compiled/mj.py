@@ -49,3 +49,6 @@ from numba import types  # noqa: E402
 # void mj_step1(const mjModel* m, mjData* d), pointers passed as 64-bit integers (MjModel._address)
 mj_step1 = types.ExternalFunction("mj_step1", types.void(types.uint64, types.uint64))
 mj_step2 = types.ExternalFunction("mj_step2", types.void(types.uint64, types.uint64))
+mj_step = types.ExternalFunction("mj_step", types.void(types.uint64, types.uint64))
+# void mj_forwardSkip(const mjModel* m, mjData* d, int skipstage, int skipsensor)
+mj_forwardSkip = types.ExternalFunction("mj_forwardSkip", types.void(types.uint64, types.uint64, types.intc, types.intc))
