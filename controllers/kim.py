@@ -73,6 +73,7 @@ from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
+from suspension_sim.compiled.numpy_order import sign
 
 A1, A2, A3 = 1.0, 15.125e9, 5.176e5  # Kim Table 1 (a1 reconstructed = β of Lin & Kanellakopoulos)
 
@@ -116,16 +117,6 @@ _S_BLOCKS = ("x_hat", "s_prev", "Y3_prev", "F_d", "F_a", "force_error", "p_e", "
 _SB = {name: k for k, name in enumerate(_S_BLOCKS)}
 
 
-@numba.njit(cache=True)
-def _sign(x):
-    if x > 0:
-        return 1.0
-    if x < 0:
-        return -1.0
-    if x == 0:
-        return 0.0
-    return x  # nan
-
 
 @numba.njit(cache=True)
 def _kernel(t, y, p, st, u):
@@ -152,7 +143,7 @@ def _kernel(t, y, p, st, u):
         Y2 = area * vrel
         if p[_P_ANYRP] != 0.0:
             Y2 = area * (vrel + p[_P_RP] * (y[int(p[_P_OAB]) + c] - y[int(p[_P_OAW]) + c]))
-        sq = np.sqrt(np.abs(p[_P_PS] - _sign(XV) * x / area))
+        sq = np.sqrt(np.abs(p[_P_PS] - sign(XV) * x / area))
         th1 = -st[1 + 8 * nc + c]
         th2 = -st[1 + 9 * nc + c]
         th3 = st[1 + 10 * nc + c]

@@ -77,6 +77,7 @@ from __future__ import annotations
 import functools
 import math
 import re
+from suspension_sim.compiled.numpy_order import sign
 
 import numba
 import numpy as np
@@ -312,16 +313,6 @@ _SIG = ("z1", "z2", "z3", "z4", "theta_hat", "omega3", "omega4", "h3", "h4", "R3
 _ST = ("e", "lam", "x4p", "th") + _SIG  # blocks of n_corners after [started]
 
 
-@numba.njit(cache=True)
-def _sign(x):
-    if x > 0:
-        return 1.0
-    if x < 0:
-        return -1.0
-    if x == 0:
-        return 0.0
-    return x
-
 
 @numba.njit(cache=True)
 def _kernel(t, y, p, st, u):
@@ -365,8 +356,8 @@ def _kernel(t, y, p, st, u):
         P1 = 4 * math.pow(d, three) * k4
         P2 = 12 * (d * d) * k4
         P3 = 24 * d * k4
-        D = p[_P_PS] - _sign(x6) * x5
-        w3 = _sign(D) * np.sqrt(np.abs(D))
+        D = p[_P_PS] - sign(x6) * x5
+        w3 = sign(D) * np.sqrt(np.abs(D))
         g = p[_P_G]
         if np.abs(w3) < g:
             w3g = g if w3 >= 0 else -g

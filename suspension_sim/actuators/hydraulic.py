@@ -43,6 +43,7 @@ from ..components import Params
 from ..registry import ACTUATORS
 from ._common import kernel_pack
 from .base import Actuator
+from ..compiled.numpy_order import sign
 
 
 class HydraulicParams(Params):
@@ -93,16 +94,6 @@ def w3(P, xv, Ps):
 _HP = 13  # index of e_1 in p
 
 
-@numba.njit(cache=True)
-def _ksign(x):
-    if x > 0.0:
-        return 1.0
-    if x < 0.0:
-        return -1.0
-    if x == 0.0:
-        return 0.0
-    return x  # NaN
-
 
 @numba.njit(cache=True)
 def _kernel_force(cmd, s, v, t, dt, p, st):
@@ -151,12 +142,12 @@ def _kernel_advance(cmd, s, v, t, dt, p, st):
         elif xv1 > xlim:
             xv1 = xlim
         # _deriv(P, xv0, ar), w3(P, xv0, P_s)
-        D = Ps - _ksign(xv0) * P
-        f0 = -beta * P - ar + gamma * xv0 * (_ksign(D) * math.sqrt(abs(D)))
+        D = Ps - sign(xv0) * P
+        f0 = -beta * P - ar + gamma * xv0 * (sign(D) * math.sqrt(abs(D)))
         # _trapezoid_step(P, f0, xv1, h, ar)
         a = 1.0 + 0.5 * h * beta
         K = P + 0.5 * h * f0 - 0.5 * h * ar
-        sig = _ksign(xv1)
+        sig = sign(xv1)
         b = 0.5 * h * gamma * abs(xv1)
         c = a * Ps - sig * K
         S = 2.0 * c / (b + math.sqrt(b * b + 4.0 * a * abs(c)))

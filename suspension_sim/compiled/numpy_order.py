@@ -68,3 +68,15 @@ def pairwise_sum(a, lo, n):
             n2 -= n2 % 8
             depth += 1
             s_lo[depth], s_n[depth], s_stage[depth] = s_lo[depth - 1], n2, 0
+
+
+@numba.njit(cache=True)
+def sign(x):
+    """np.sign of a float: -1, 0 or 1, and NaN for NaN."""
+    if x > 0.0:
+        return 1.0
+    if x < 0.0:
+        return -1.0
+    if x == 0.0:
+        return 0.0
+    return x  # NaN
