@@ -125,10 +125,13 @@ class SimCfg(_Strict):
     control_dt: float = Field(0.001, gt=0, description="control step in s (a multiple of dt)")
     log_dt: float = Field(0.001, gt=0, description="logging step in s (a multiple of dt)")
     seed: int = 0
-    integrator: Literal["implicitfast", "RK4"] = Field(
+    integrator: Literal["implicitfast", "trapezoidal", "RK4"] = Field(
         "implicitfast", description="MuJoCo integrator: implicitfast (default; dampers implicit, robust for stiff "
-        "elements, first order: ~w*dt/2 phase lag) or RK4 (4th order for the linear plant; effect and actuator "
-        "forces are held over each step)")
+        "elements, first order: ~w*dt/2 phase lag); trapezoidal (MuJoCo's implicitfast step with the linear "
+        "dampers split half implicit, half explicit, and the body-wheel damper coupling that MuJoCo's implicit "
+        "step leaves out supplied from the last step: second order at the same cost; needs damping*dt/mass <= 1 "
+        "and a model with tires); or RK4 (4th order for the linear plant; 3.5x the cost). Effect and actuator "
+        "forces are held over each step in all three")
     max_displacement: float = Field(5.0, gt=0, description="divergence guard on |position| in m (or rad)")
     max_velocity: float = Field(200.0, gt=0, description="divergence guard on |velocity| in m/s")
 

@@ -198,9 +198,16 @@ class Plant:
             self.static_tire = m.tendon_stiffness[self.tire_t] * m.tendon_lengthspring[self.tire_t, 0]
         else:
             self.static_tire = self.static_susp.copy()
+        # the linear dampers' full coefficients (the trapezoidal scheme leaves half of them to MuJoCo)
+        self.susp_c = m.tendon_damping[self.susp_t].copy()
+        self.tire_c = m.tendon_damping[self.tire_t].copy() if self.has_tire else np.zeros_like(self.susp_c)
         if not self.road_dof:  # the tire springs' rest lengths at equilibrium (road at 0)
             self.tire_rest0 = m.tendon_lengthspring[self.tire_t].copy()  # (n, nc, 2)
-            self.tire_ct = m.tendon_damping[self.tire_t].copy()
+            self.tire_ct = self.tire_c.copy()
+        if self.integrator == "trapezoidal":  # MuJoCo integrates half of each damper implicitly
+            m.tendon_damping[self.susp_t] = 0.5 * self.susp_c
+            if self.has_tire:
+                m.tendon_damping[self.tire_t] = 0.5 * self.tire_c
         self.road_mass = 1e12
         if self.integrator == "RK4":
             # RK4 evaluates forces at intermediate stages: keep the road plates on their kinematic path

@@ -191,3 +191,21 @@ def test_controller_without_kernel_data_runs_hybrid(monkeypatch):
     assert sim_c.loop == "hybrid" and "not for this setting" in sim_c.loop_reason
     for a, b in zip(rp, rc):
         assert a.ts.equals(b.ts)
+
+
+def test_trapezoidal_compiled_is_bit_identical(monkeypatch):
+    """The trapezoidal scheme's explicit damper halves and body-wheel coupling forces: same arithmetic on
+    both loops (quarter-car ensemble with effects, and the full car with its pitch and roll)."""
+    scs = _bench_like(3, sim={"duration": 0.6, "integrator": "trapezoidal"})
+    sim_c, rc = _run(scs, True, monkeypatch)
+    _, rp = _run(scs, False, monkeypatch)
+    assert sim_c.loop == "full"
+    for a, b in zip(rp, rc):
+        assert a.ts.equals(b.ts)
+    raw = _raw(ROOT / "scenarios" / "full_car_bump.yaml", 0.5)
+    raw["sim"]["integrator"] = "trapezoidal"
+    scs = [parse_scenario(raw)]
+    sim_c, rc = _run(scs, True, monkeypatch)
+    _, rp = _run(scs, False, monkeypatch)
+    assert sim_c.loop == "full"
+    _assert_same(rp[0], rc[0])

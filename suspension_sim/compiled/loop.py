@@ -32,7 +32,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-TEMPLATE_VERSION = 11
+TEMPLATE_VERSION = 12
 
 # PlantState fields a compiled sensor may read (Sensor.kernel_field), by code
 FIELDS = ("body_pos", "body_vel", "body_acc", "corner_body_pos", "corner_body_vel", "corner_body_acc",
@@ -233,7 +233,7 @@ def field_value(f, col, aux, i, jr, qpos, qvel, ten_len, ten_vel, acc, body_q, b
 def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
          road_q, road_v, road_servo, susp_t, tire_t, eff_s, eff_t, act, wheel_q, wheel_v, body_q, body_v,
          free_q, free_v, has_tire, has_effects, has_tire_effects, kt, ct, Jb, road_dof, lsp, rest0, tire_ct,
-         rk4, qfrc, qacc, road_mass,
+         rk4, qfrc, qacc, road_mass, trap, half_cs, half_ct, v_prev,
          road_z, road_zd, road_zdd, k_chunk0, k0, k1, resume, full_control, n_steps, sub, log_every, dt, lim_x, lim_v,
          cmd, F_act, F_eff, F_teff, acc, v_before, sv, a_p, a_st,
          sens_field, sens_cols, sens_aux, sens_off, sens_k, sens_delay, sens_hold, sens_bias, sens_std, sens_q,
@@ -294,6 +294,22 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                         cmd[i, c] = 0.0
 {ctrl_block}                kc_arr[0] = kc + 1
         skip = False
+        if trap:  # body-wheel damper coupling from the last step's velocity change (Simulation._trapezoidal_coupling)
+            for i in range(n):
+                for b in range(nb):
+                    fb = 0.0
+                    for c in range(nc):
+                        fb += (half_cs[i, c] * Jb[i, c, b]) * (qvel[wheel_v[i, c]] - v_prev[wheel_v[i, c]])
+                    qfrc[body_v[i, b]] = fb
+                for c in range(nc):
+                    sw = 0.0
+                    for b in range(nb):
+                        sw += Jb[i, c, b] * (qvel[body_v[i, b]] - v_prev[body_v[i, b]])
+                    qfrc[wheel_v[i, c]] = half_cs[i, c] * sw
+                for b in range(nb):
+                    v_prev[body_v[i, b]] = qvel[body_v[i, b]]
+                for c in range(nc):
+                    v_prev[wheel_v[i, c]] = qvel[wheel_v[i, c]]
         # forces from the state at the start of the step
         for i in range(n):
             for c in range(nc):
@@ -317,7 +333,11 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                     ctrl[eff_s[i, c]] = f
                     if has_tire and road_dof:
                         ctrl[eff_t[i, c]] = ft
-                if not road_dof:
+                if trap:  # the explicit half of the linear dampers (Simulation._steps)
+                    ctrl[eff_s[i, c]] = F_eff[i, c] + (-half_cs[i, c] * v)
+                    ctrl[eff_t[i, c]] = (F_teff[i, c] + tire_ct[i, c] * road_zd[jr, i, c]) + \
+                        (-half_ct[i, c] * ten_vel[tire_t[i, c]])
+                elif not road_dof:
                     ctrl[eff_t[i, c]] = F_teff[i, c] + tire_ct[i, c] * road_zd[jr, i, c]
                 ctrl[act[i, c]] = Fa
         log_now = k % log_every == 0
@@ -674,7 +694,8 @@ def run(sim, mode: str, progress=None) -> list:
              _i64(P.free_q), _i64(P.free_v), bool(P.has_tire), bool(sim.effects), bool(has_tire_eff), kt, ct, Jb,
              bool(P.road_dof), m.tendon_lengthspring, _f64(P.tire_rest0 if not P.road_dof else np.zeros((n, nc, 2))),
              _f64(P.tire_ct if not P.road_dof else np.zeros((n, nc))),
-             bool(sim.rk4), d.qfrc_applied, d.qacc, float(P.road_mass))
+             bool(sim.rk4), d.qfrc_applied, d.qacc, float(P.road_mass),
+             bool(sim.trap), _f64(0.5 * P.susp_c), _f64(0.5 * P.tire_c), np.zeros(m.nv))
 
     def call(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume):
         return mod.loop(*fixed, road_z, road_zd, road_zdd, k_chunk0, k, k1, resume, full, sim.n_steps, sim.sub,
