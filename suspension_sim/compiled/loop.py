@@ -8,11 +8,12 @@
   Python: the compiled loop returns at each control instant, Python reads the sensors and calls the
   controller exactly as the Python loop does, and the compiled loop goes on with the command;
 - ``None`` (with the reason): the Python loop of ``simulation.py`` runs (an effect or actuator without a
-  kernel, time-varying parameters, manoeuvres, or ``SUSPENSION_SIM_COMPILED=0``).
+  kernel, manoeuvres, or ``SUSPENSION_SIM_COMPILED=0``).  Time-varying parameters are applied from Python
+  before each control instant (the loop returns there).
 
 For each combination of component kernels a small module is generated (the loop with the kernels' calls
 written out, so numba inlines them) into a cache folder, and compiled with ``cache=True``: the first run of a
-combination compiles it (about a second), later runs and processes load it from disk.  The folder is
+combination compiles it (3–5 s), later runs and processes load it from disk (~0.25 s).  The folder is
 ``$SUSPENSION_SIM_CACHE`` or ``~/.cache/suspension_sim``; when it is not writable, a temporary folder is used
 (compiled again in each process).
 
@@ -32,12 +33,13 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-TEMPLATE_VERSION = 12
+TEMPLATE_VERSION = 13
 
 # PlantState fields a compiled sensor may read (Sensor.kernel_field), by code
 FIELDS = ("body_pos", "body_vel", "body_acc", "corner_body_pos", "corner_body_vel", "corner_body_acc",
           "wheel_pos", "wheel_vel", "wheel_acc", "travel", "travel_rate", "road", "road_vel", "tire_force",
           "actuator_force", "actuator_state")
+PRE = 1 << 40  # the loop's return code before a control instant with time-varying parameters (PRE + k)
 # rows of the per-quantity log column table
 LOG_ROWS = ("body_pos", "body_vel", "body_acc", "travel", "travel_rate", "wheel_z", "wheel_vel", "tire_force",
             "tire_effect_force", "road", "road_vel", "command", "actuator_force", "effect_force", "wheel_acc")
@@ -64,8 +66,6 @@ def plan(sim) -> tuple[str | None, str]:
 
     if mj.load() is not None:
         return None, mj.load()
-    if sim.variations:
-        return None, "time-varying parameters"
     if sim.maneuver is not None:
         return None, "manoeuvre"
     for eff, _ in sim.effects:
@@ -182,6 +182,8 @@ def generate_source(effects, actuator, controller, sensors=()) -> str:
     ctrl_block = ("                    ctrl_kernel(t, y[i], c_p[i], c_st[i], cmd[i])\n" if controller is not None
                   else "                    pass\n")
     body = f'''
+PRE = {PRE}
+
 
 @njit(cache=True, inline="always")
 def field_value(f, col, aux, i, jr, qpos, qvel, ten_len, ten_vel, acc, body_q, body_v, wheel_q, wheel_v, susp_t,
@@ -234,22 +236,28 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
          road_q, road_v, road_servo, susp_t, tire_t, eff_s, eff_t, act, wheel_q, wheel_v, body_q, body_v,
          free_q, free_v, has_tire, has_effects, has_tire_effects, kt, ct, Jb, road_dof, lsp, rest0, tire_ct,
          rk4, qfrc, qacc, road_mass, trap, half_cs, half_ct, v_prev,
-         road_z, road_zd, road_zdd, k_chunk0, k0, k1, resume, full_control, n_steps, sub, log_every, dt, lim_x, lim_v,
+         road_z, road_zd, road_zdd, k_chunk0, k0, k1, resume, var_hook, full_control, n_steps, sub, log_every, dt, lim_x, lim_v,
          cmd, F_act, F_eff, F_teff, acc, v_before, sv, a_p, a_st,
          sens_field, sens_cols, sens_aux, sens_off, sens_k, sens_delay, sens_hold, sens_bias, sens_std, sens_q,
          noise, noise_off, ring, sens_tmp, y, kc_arr, c_p, c_st,
          L, LC, lc_act, act_j, lc_y, lc_ctrl, ctrl_j{eargs}):
     """Physics steps k0..k1-1 (road samples of step k at road_z[k - k_chunk0]).  Returns k1 when done,
     k (>= 0) at a control instant that Python must handle (hybrid loop, after mj_step1 of step k: call again
-    with resume=1 from k), or -(k + 1) when the state check at control instant k fails."""
+    with resume=1 from k), -(k + 1) when the state check at control instant k fails, or PRE + k before
+    control instant k when var_hook is set (Python applies the time-varying parameters, then calls again with
+    resume=2 from k)."""
     n, nc = road_q.shape
     nb = body_q.shape[1]
     n_log = L.shape[1]
     k = k0
-    skip = resume
+    skip = resume == 1
+    pre_done = resume == 2
     while k < k1:
         t = k * dt
         jr = k - k_chunk0
+        if var_hook and not skip and not pre_done and k % sub == 0:
+            return PRE + k
+        pre_done = False
         if not skip:
             for i in range(n):
                 for c in range(nc):
@@ -698,7 +706,7 @@ def run(sim, mode: str, progress=None) -> list:
              bool(sim.trap), _f64(0.5 * P.susp_c), _f64(0.5 * P.tire_c), np.zeros(m.nv))
 
     def call(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume):
-        return mod.loop(*fixed, road_z, road_zd, road_zdd, k_chunk0, k, k1, resume, full, sim.n_steps, sim.sub,
+        return mod.loop(*fixed, road_z, road_zd, road_zdd, k_chunk0, k, k1, resume, bool(sim.variations), full, sim.n_steps, sim.sub,
                         sim.log_every, sim.dt, float(sc0.max_displacement), float(sc0.max_velocity),
                         cmd, F_act, F_eff, F_teff, acc, v_before, sv, a_p, a_st,
                         sens["field"], sens_cols, sens["aux"], sens["off"], sens["k"], sens["delay"],
@@ -728,6 +736,10 @@ def run(sim, mode: str, progress=None) -> list:
             r = call(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume)
             if r == k1:
                 break
+            if r >= PRE:  # time-varying parameters at control instant k, as Simulation._steps applies them
+                k, resume = r - PRE, 2
+                sim._apply_variations(k * sim.dt)
+                continue
             if r < 0:
                 kd = -r - 1
                 sim._last_forces = (F_act, F_eff, F_teff)
