@@ -115,6 +115,16 @@ class AppliedManeuver:
             out[i] = ax[0], ay[0]
         return out
 
+    def loads(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The generalised pitch and roll forces :meth:`apply` adds at each of the times ``t``, as arrays
+        (len(t), n_cars), same arithmetic (for the compiled loop, which adds them itself)."""
+        t = np.asarray(t, dtype=float)
+        ax = np.empty((len(t), len(self.maneuvers)))
+        ay = np.empty_like(ax)
+        for i, mv in enumerate(self.maneuvers):
+            ax[:, i], ay[:, i] = mv.accel(t)
+        return -self.m * ax * self.h, self.m * ay * self.h
+
     def apply(self, t: float, d) -> None:
         a = self.accel(t)
         self.last = a

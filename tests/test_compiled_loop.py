@@ -55,6 +55,9 @@ def _assert_same(ra, rb, rel=1e-9):
     assert ra.metrics.keys() == rb.metrics.keys()
     for k, v in ra.metrics.items():
         w = rb.metrics[k]
+        rms = ra.metrics.get(k.replace("_crest", "_rms"), 1.0) if k.endswith("_crest") else 1.0
+        if rms < 1e-9:
+            continue  # the crest factor (peak / rms) of a channel that is round-off (e.g. heave in a symmetric DLC)
         assert (np.isnan(v) and np.isnan(w)) or abs(v - w) <= rel * max(1.0, abs(v)), k
 
 

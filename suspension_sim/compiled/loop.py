@@ -8,7 +8,8 @@
   Python: the compiled loop returns at each control instant, Python reads the sensors and calls the
   controller exactly as the Python loop does, and the compiled loop goes on with the command;
 - ``None`` (with the reason): the Python loop of ``simulation.py`` runs (an effect or actuator without a
-  kernel, manoeuvres, or ``SUSPENSION_SIM_COMPILED=0``).  Time-varying parameters are applied from Python
+  kernel, or ``SUSPENSION_SIM_COMPILED=0``).  Manoeuvre loads are computed per chunk in Python and added
+  by the loop.  Time-varying parameters are applied from Python
   before each control instant (the loop returns there).
 
 For each combination of component kernels a small module is generated (the loop with the kernels' calls
@@ -33,7 +34,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-TEMPLATE_VERSION = 13
+TEMPLATE_VERSION = 14
 
 # PlantState fields a compiled sensor may read (Sensor.kernel_field), by code
 FIELDS = ("body_pos", "body_vel", "body_acc", "corner_body_pos", "corner_body_vel", "corner_body_acc",
@@ -66,8 +67,6 @@ def plan(sim) -> tuple[str | None, str]:
 
     if mj.load() is not None:
         return None, mj.load()
-    if sim.maneuver is not None:
-        return None, "manoeuvre"
     for eff, _ in sim.effects:
         if type(eff).kernel is None or _kernel_ref(type(eff).kernel) is None:
             return None, f"effect {eff.name!r} has no kernel"
@@ -235,8 +234,8 @@ def field_value(f, col, aux, i, jr, qpos, qvel, ten_len, ten_vel, acc, body_q, b
 def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
          road_q, road_v, road_servo, susp_t, tire_t, eff_s, eff_t, act, wheel_q, wheel_v, body_q, body_v,
          free_q, free_v, has_tire, has_effects, has_tire_effects, kt, ct, Jb, road_dof, lsp, rest0, tire_ct,
-         rk4, qfrc, qacc, road_mass, trap, half_cs, half_ct, v_prev,
-         road_z, road_zd, road_zdd, k_chunk0, k0, k1, resume, var_hook, full_control, n_steps, sub, log_every, dt, lim_x, lim_v,
+         rk4, qfrc, qacc, road_mass, trap, half_cs, half_ct, v_prev, has_man, pitch_v, roll_v,
+         road_z, road_zd, road_zdd, man_p, man_r, k_chunk0, k0, k1, resume, var_hook, full_control, n_steps, sub, log_every, dt, lim_x, lim_v,
          cmd, F_act, F_eff, F_teff, acc, v_before, sv, a_p, a_st,
          sens_field, sens_cols, sens_aux, sens_off, sens_k, sens_delay, sens_hold, sens_bias, sens_std, sens_q,
          noise, noise_off, ring, sens_tmp, y, kc_arr, c_p, c_st,
@@ -259,6 +258,14 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
             return PRE + k
         pre_done = False
         if not skip:
+            if has_man:  # the manoeuvre's loads of this step (Simulation._steps: zero, then AppliedManeuver.apply)
+                for q in range(qfrc.shape[0]):
+                    qfrc[q] = 0.0
+                for i in range(n):
+                    if pitch_v[i] >= 0:
+                        qfrc[pitch_v[i]] += man_p[jr, i]
+                    if roll_v[i] >= 0:
+                        qfrc[roll_v[i]] += man_r[jr, i]
             for i in range(n):
                 for c in range(nc):
                     z = road_z[jr, i, c]
@@ -308,12 +315,18 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                     fb = 0.0
                     for c in range(nc):
                         fb += (half_cs[i, c] * Jb[i, c, b]) * (qvel[wheel_v[i, c]] - v_prev[wheel_v[i, c]])
-                    qfrc[body_v[i, b]] = fb
+                    if has_man:
+                        qfrc[body_v[i, b]] += fb
+                    else:
+                        qfrc[body_v[i, b]] = fb
                 for c in range(nc):
                     sw = 0.0
                     for b in range(nb):
                         sw += Jb[i, c, b] * (qvel[body_v[i, b]] - v_prev[body_v[i, b]])
-                    qfrc[wheel_v[i, c]] = half_cs[i, c] * sw
+                    if has_man:
+                        qfrc[wheel_v[i, c]] += half_cs[i, c] * sw
+                    else:
+                        qfrc[wheel_v[i, c]] = half_cs[i, c] * sw
                 for b in range(nb):
                     v_prev[body_v[i, b]] = qvel[body_v[i, b]]
                 for c in range(nc):
@@ -529,6 +542,16 @@ class _Layout:
         self.eff_lc = [remap[a] for a in self.eff_lc]
 
 
+def _maneuver_joints(sim):
+    """(pitch dof, roll dof) per car for the manoeuvre's loads, -1 where absent."""
+    n = sim.plant.n
+    out = []
+    for name in ("pitch", "roll"):
+        idx = getattr(sim.maneuver, name, None) if sim.maneuver is not None else None
+        out.append(np.full(n, -1, np.int64) if idx is None else _i64(idx))
+    return out
+
+
 def metric_channels(suffixes) -> set | None:
     """The log channels the registered metrics read (their declared ``ensemble_channels``), or None when a
     metric does not declare them (then everything is logged)."""
@@ -703,10 +726,11 @@ def run(sim, mode: str, progress=None) -> list:
              bool(P.road_dof), m.tendon_lengthspring, _f64(P.tire_rest0 if not P.road_dof else np.zeros((n, nc, 2))),
              _f64(P.tire_ct if not P.road_dof else np.zeros((n, nc))),
              bool(sim.rk4), d.qfrc_applied, d.qacc, float(P.road_mass),
-             bool(sim.trap), _f64(0.5 * P.susp_c), _f64(0.5 * P.tire_c), np.zeros(m.nv))
+             bool(sim.trap), _f64(0.5 * P.susp_c), _f64(0.5 * P.tire_c), np.zeros(m.nv), sim.maneuver is not None,
+             *_maneuver_joints(sim))
 
     def call(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume):
-        return mod.loop(*fixed, road_z, road_zd, road_zdd, k_chunk0, k, k1, resume, bool(sim.variations), full, sim.n_steps, sim.sub,
+        return mod.loop(*fixed, road_z, road_zd, road_zdd, man_p, man_r, k_chunk0, k, k1, resume, bool(sim.variations), full, sim.n_steps, sim.sub,
                         sim.log_every, sim.dt, float(sc0.max_displacement), float(sc0.max_velocity),
                         cmd, F_act, F_eff, F_teff, acc, v_before, sv, a_p, a_st,
                         sens["field"], sens_cols, sens["aux"], sens["off"], sens["k"], sens["delay"],
@@ -731,6 +755,10 @@ def run(sim, mode: str, progress=None) -> list:
         chunks = [np.ascontiguousarray(a.transpose(1, 0, 2), dtype=np.float64) for a in sim._road_chunk(k_chunk0, k1)]
         road_z, road_zd = chunks[0], chunks[1]
         road_zdd = chunks[2] if sim.rk4 else road_z  # RK4: the plates' acceleration (unused otherwise)
+        if sim.maneuver is not None:  # the manoeuvre's pitch/roll loads of the chunk's steps
+            man_p, man_r = (np.ascontiguousarray(a) for a in sim.maneuver.loads(np.arange(k_chunk0, k1) * sim.dt))
+        else:
+            man_p = man_r = np.zeros((1, n))
         k, resume = k_chunk0, 0
         while True:
             r = call(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume)
