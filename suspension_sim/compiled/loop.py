@@ -175,7 +175,6 @@ def generate_source(effects, actuator, controller, sensors=()) -> str:
             f"                for q in range(e{k}_sigj.shape[0]):\n"
             f"                    for jj in range(e{k}_lc.shape[1]):\n"
             f"                        L[i, jl, e{k}_lc[q, jj]] = e{k}_st[i, jj, e{k}_sigj[q]]\n")
-    n_eff = len(effects)
     sensor_block = "".join(_sensor_code(sc, f, simple) for sc, (f, simple) in enumerate(sensors)) or \
         "                    pass\n"
     ctrl_block = ("                    ctrl_kernel(t, y[i], c_p[i], c_st[i], cmd[i])\n" if controller is not None
@@ -803,7 +802,7 @@ def run(sim, mode: str, progress=None) -> list:
                 L, eff_full = make_log()
                 attach_log()
             q = 0
-            for nm, v in rd:
+            for _, v in rd:
                 y[:, q:q + v.shape[1]] = v
                 q += v.shape[1]
             q = 0
