@@ -27,8 +27,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from controllers.thesis_common import FB_HEADER, fb_update, fb_y, fb_yu, k_dot
-from controllers.thesis_mrac_continuous import (
+from suspension_sim.controllers.thesis_common import FB_HEADER, fb_update, fb_y, fb_yu, k_dot
+from suspension_sim.controllers.thesis_mrac_continuous import (
     _FILTERS,
     _PG,
     _PS,
@@ -176,7 +176,7 @@ def time_kernel(kernel, ys, p0, st0):
 
 
 def main():
-    from controllers.thesis_mrac_continuous import MRACContinuous
+    from suspension_sim.controllers.thesis_mrac_continuous import MRACContinuous
 
     ys, ctrl = readings()
     ctrl.reset()

@@ -22,6 +22,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from suspension_sim.components import NoParams
+from suspension_sim.kernels import broadcast_controller, call, f64
 
 
 @dataclass
@@ -41,23 +42,43 @@ class ControlContext:
     full_state: bool = False
     static_suspension_force: np.ndarray | None = None  # (n_cars, n_corners)
     extra: dict = field(default_factory=dict)
+    # full_state: {"state.<name>": width} of the true plant quantities the controller may read, in order
+    state_widths: dict = field(default_factory=dict)
 
     @property
     def n_corners(self) -> int:
         return len(self.corners)
 
+    def reading_layout(self) -> dict[str, int]:
+        """{reading name: width} in the order of a kernel's reading vector y: the declared sensors in declared
+        order, then (with ``full_state``) the true plant quantities ``state.<name>`` (:attr:`state_widths`)."""
+        out = {sname: len(labels) for sname, labels in self.sensors.items()}
+        if self.full_state:
+            out.update(self.state_widths)
+        return out
+
     def sensor_slice(self, name: str) -> tuple[int, int]:
-        """(start, stop) of sensor ``name`` in a compiled controller's reading vector y (the declared sensors
-        concatenated in declared order); KeyError if the scenario does not declare it."""
+        """(start, stop) of reading ``name`` in a kernel's reading vector y (:meth:`reading_layout`); a name
+        the scenario does not declare is read from the true state ``state.<name>`` when ``full_state`` is set;
+        KeyError otherwise."""
+        layout = self.reading_layout()
+        if name not in layout and self.full_state and f"state.{name}" in layout:
+            name = f"state.{name}"
         start = 0
-        for sname, labels in self.sensors.items():
+        for sname, width in layout.items():
             if sname == name:
-                return start, start + len(labels)
-            start += len(labels)
+                return start, start + width
+            start += width
         raise KeyError(name)
 
 
 class Controller:
+    """Base class.  A built-in controller writes its law once, as the numba :attr:`kernel` for one car; the
+    base class broadcasts it over the ensemble (:meth:`step`, :meth:`signals`), and the compiled loop inlines
+    it.  A subclass sets ``Params``, implements :meth:`reset` (calling ``super().reset()``) and
+    :meth:`kernel_data`, and declares :meth:`kernel_signals`.  A user's controller may instead override
+    :meth:`step` (and :meth:`signals`) in plain numpy; it then runs in the Python or hybrid loop."""
+
     name = "controller"
     Params = NoParams
     requires: tuple[str, ...] = ()
@@ -72,21 +93,17 @@ class Controller:
         self.reset()
 
     def reset(self) -> None:
-        pass
+        """Reset the controller state; subclasses call ``super().reset()``."""
+        self._kd = None
 
-    def step(self, t: float, y: dict[str, np.ndarray]) -> np.ndarray:
-        raise NotImplementedError
-
-    def signals(self) -> dict[str, np.ndarray]:
-        return {}
-
-    # optional compiled kernel (see suspension_sim.compiled): a module-level numba @njit function
-    # (t, y, p, st, u) -> None doing step() for one car: y its readings (ControlContext.sensor_slice), p and st
-    # its rows of kernel_data(), u its command row (n_corners) to fill
+    # the law: a module-level numba @njit function (t, y, p, st, u) -> None doing one control step for one
+    # car: y its readings (ControlContext.sensor_slice), p and st its rows of kernel_data(), u its command row
+    # (n_corners) to fill
     kernel = None
 
     def kernel_data(self) -> tuple[np.ndarray, np.ndarray]:
-        """(p, st): float64 C-contiguous arrays (n_cars, kp) and (n_cars, ks) from the current (reset) state."""
+        """(p, st): float64 C-contiguous arrays (n_cars, kp) and (n_cars, ks) from the current (reset) state.
+        Raise NotImplementedError for a setting the kernel cannot run."""
         raise NotImplementedError
 
     def kernel_signals(self) -> dict[str, tuple[int, int]]:
@@ -94,7 +111,41 @@ class Controller:
         return {}
 
     def kernel_sync(self, st: np.ndarray) -> None:
-        """Write the kernel state back to the Python attributes after a compiled run (optional)."""
+        """Take the kernel state of a compiled run (so that :meth:`signals` and a following :meth:`step`
+        continue from it)."""
+        p, _ = self._data()
+        self._kd = (p, f64(np.array(st, dtype=np.float64)))
+
+    def _data(self):
+        if getattr(self, "_kd", None) is None:
+            if type(self).kernel is None:
+                raise NotImplementedError(f"controller {self.name!r} has neither a kernel nor a step()")
+            self._kd = tuple(f64(np.array(x, dtype=np.float64)) for x in self.kernel_data())
+        return self._kd
+
+    def readings(self, y: dict[str, np.ndarray]) -> np.ndarray:
+        """The readings ``y`` (name -> (n_cars, k)) as the kernel's reading matrix (n_cars, sum of widths), in
+        the order of :meth:`ControlContext.reading_layout`."""
+        n = self.ctx.n_cars
+        cols = [np.broadcast_to(np.asarray(y[name], dtype=np.float64).reshape(n, -1), (n, w))
+                for name, w in self.ctx.reading_layout().items()]
+        return np.ascontiguousarray(np.concatenate(cols, axis=1)) if cols else np.zeros((n, 0))
+
+    def step(self, t: float, y: dict[str, np.ndarray]) -> np.ndarray:
+        """One control step for every car: the kernel broadcast over the ensemble; returns (n_cars, n_corners)."""
+        p, st = self._data()
+        u = np.zeros((self.ctx.n_cars, self.ctx.n_corners))
+        call(broadcast_controller, type(self).kernel, float(t), self.readings(y), p, st, u)
+        return u
+
+    def signals(self) -> dict[str, np.ndarray]:
+        """Internal signals (parameter estimates, errors), each (n_cars, k) or (n_cars,), from the kernel
+        state (:meth:`kernel_signals`)."""
+        sig = self.kernel_signals()
+        if not sig:
+            return {}
+        _, st = self._data()
+        return {nm: (st[:, a].copy() if b == a + 1 else st[:, a:b].copy()) for nm, (a, b) in sig.items()}
 
     def zeros(self) -> np.ndarray:
         return np.zeros((self.ctx.n_cars, self.ctx.n_corners))

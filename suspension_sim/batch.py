@@ -567,7 +567,7 @@ class LocalEngine:
 
 class DaskEngine:
     """Dask distributed: an existing scheduler (``tcp://host:8786``) or a local cluster of N worker
-    processes (one thread each).  Workers must be able to import ``suspension_sim`` and ``controllers``."""
+    processes (one thread each).  Workers must be able to import ``suspension_sim``."""
 
     def __init__(self, scheduler: str | None = None, n_local: int | None = None):
         try:

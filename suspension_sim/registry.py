@@ -28,7 +28,7 @@ _PACKAGES = [
     "suspension_sim.actuators",
     "suspension_sim.metrics",
     "suspension_sim.sensors",
-    "controllers",
+    "suspension_sim.controllers",
 ]
 _loaded = False
 

@@ -16,7 +16,9 @@ Logging happens every ``log_dt``.  A NaN or runaway state stops the run with
 """
 from __future__ import annotations
 
+
 import contextlib
+import dataclasses
 import os
 import time as _time
 from pathlib import Path
@@ -209,7 +211,7 @@ class Simulation:
             self.sensors.append(SensorChannel(scfg, scls(sp_, sctx), self.control_dt, rng))
 
         # controller ------------------------------------------------------------------------------------
-        from controllers.base import ControlContext
+        from suspension_sim.controllers.base import ControlContext
 
         ccls = CONTROLLERS.get(sc0.controller.type, field="controller.type", source=source)
         cp = stack_params([validate_params(ccls.Params, s.controller.params, "controller.params", source)
@@ -221,8 +223,23 @@ class Simulation:
             corner_y=self.geom.corner_y, control_dt=self.control_dt, dt=self.dt, vehicle_model=sc0.vehicle.model,
             vehicle=vparams, sensors={ch.name: ch.sensor.labels() for ch in self.sensors},
             actuator=sc0.actuator.type, command_unit=acls.command_unit, full_state=self.full_state,
-            static_suspension_force=P.static_susp.copy())
+            static_suspension_force=P.static_susp.copy(), state_widths=self._state_widths())
         self.controller = ccls(cp, self.cctx)
+
+    def _state_widths(self) -> dict:
+        """{"state.<name>": width} of the true plant quantities a full-state controller reads (the order of
+        :func:`_full_state`)."""
+        if not self.full_state:
+            return {}
+        nb, nc = len(self.plant.body_joints), self.plant.nc
+        out = {}
+        for f in dataclasses.fields(PlantState):
+            if f.name in ("t", "actuator_states", "extra"):
+                continue
+            out[f"state.{f.name}"] = nb if f.name.startswith("body_") else nc
+        for k, v in self.actuator.states().items():
+            out[f"state.actuator.{k}"] = int(np.asarray(v).reshape(self.plant.n, -1).shape[1])
+        return out
 
     # ------------------------------------------------------------------------------------------------
     def _check_trapezoidal(self, source):

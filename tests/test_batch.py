@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 import yaml
 
-from controllers.base import Controller
+from suspension_sim.controllers.base import Controller
 from suspension_sim.batch import LocalEngine, combinations, load_sweep, plan, run_batch
 from suspension_sim.components import Params
 from suspension_sim.config import parse_scenario

@@ -179,7 +179,7 @@ def test_progress_and_log_hooks_see_every_log_step(monkeypatch):
 def test_controller_without_kernel_data_runs_hybrid(monkeypatch):
     """A controller class with a kernel that declines a setting (kernel_data raises NotImplementedError) is
     called from Python at control instants, with the same results."""
-    from controllers.skyhook import Skyhook
+    from suspension_sim.controllers.skyhook import Skyhook
     from suspension_sim.registry import CONTROLLERS
 
     if "_test_declines_kernel" not in CONTROLLERS._items:

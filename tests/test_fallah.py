@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controllers.fallah import HYBRID_COEFS, affine_model, quarter_car_matrices, solve_lmis
+from suspension_sim.controllers.fallah import HYBRID_COEFS, affine_model, quarter_car_matrices, solve_lmis
 from suspension_sim.config import load_scenario
 from suspension_sim.errors import ScenarioError
 from suspension_sim.simulation import Simulation

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import suspension_sim as ss
-from controllers.base import Controller
+from suspension_sim.controllers.base import Controller
 from suspension_sim.registry import CONTROLLERS
 
 from reference_models import ExtraState, QuarterCarRef, nrmse

@@ -14,7 +14,7 @@ import copy
 import numpy as np
 import pytest
 
-from controllers.thesis_common import k_dot, k_dot_seq
+from suspension_sim.controllers.thesis_common import k_dot, k_dot_seq
 from suspension_sim.compiled.testing import check_controller
 from suspension_sim.config import parse_scenario, read_yaml
 from suspension_sim.simulation import Simulation
@@ -140,7 +140,7 @@ def test_mrac_continuous_kernel_sync(request):
 # --- the discrete MRAC estimator (Ch. 4 and Ch. 7) on its own: every branch -------------------------------
 
 def _core_design(m, D, kappa, u_max, beta_inv_range, trace_max, n):
-    from controllers.thesis_common import DiscreteMRAC, am_poly, darma, predictor, theta_from_predictor
+    from suspension_sim.controllers.thesis_common import DiscreteMRAC, am_poly, darma, predictor, theta_from_predictor
 
     h = 0.01
     if m == 1:
@@ -164,7 +164,7 @@ def test_discrete_mrac_core_kernel_all_branches(m, D, kappa, u_max, n):
     projection and (where set) the force limit engaged.  A lone car's Θ (1, p, m) is laid out along p
     (np.tile of the transposed nominal), which changes np.einsum's summation order for m = 2: the n = 1
     case checks that the kernel follows it."""
-    from controllers.thesis_common import DM_HEADER, KernelLayout, dm_step
+    from suspension_sim.controllers.thesis_common import DM_HEADER, KernelLayout, dm_step
 
     core = _core_design(m, D, kappa, u_max, (0.9, 1.1), 0.0, n)
     core.trace_max = float(np.trace(core.P[0])) * 0.5  # the first updates may not add q·I

@@ -22,7 +22,7 @@ def test_symbolic_road_terms_match_the_paper():
     θ̂ term of h4 (20); ∂α3/∂x5 has the structure of the paper's ω4 (14)."""
     import sympy as sp
 
-    from controllers.lin_kanellakopoulos import derivation
+    from suspension_sim.controllers.lin_kanellakopoulos import derivation
 
     d = derivation()
     s, e = d["sym"], d["expr"]
@@ -145,7 +145,7 @@ def test_estimate_moves_in_the_compensating_direction(fig4, fig5):
 def test_scalar_and_array_evaluations_agree():
     """The controller evaluates the derived law with python floats for small ensembles and with numpy arrays
     for large ones: both compiled forms must give the same numbers."""
-    from controllers.lin_kanellakopoulos import _PARAM, _STATE, derivation
+    from suspension_sim.controllers.lin_kanellakopoulos import _PARAM, _STATE, derivation
 
     d = derivation()
     rng = np.random.default_rng(3)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import suspension_sim as ss
-from controllers.base import Controller
+from suspension_sim.controllers.base import Controller
 from suspension_sim.config import parse_scenario
 from suspension_sim.registry import CONTROLLERS
 

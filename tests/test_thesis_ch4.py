@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.signal import cont2discrete, welch
 
-from controllers.thesis_common import am_poly, darma, predictor
+from suspension_sim.controllers.thesis_common import am_poly, darma, predictor
 from scenario_runs import run_variants
 
 G = 9.81

@@ -7,7 +7,7 @@ import pytest
 from scipy.linalg import solve_continuous_are
 from scipy.signal import welch
 
-from controllers.thesis_soc_lqg import lqr_gain
+from suspension_sim.controllers.thesis_soc_lqg import lqr_gain
 from suspension_sim.roads.hac import hac_shaping_filter
 from scenario_runs import run_variants
 

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controllers.toscano_dumas import ALPHA_B, ALPHA_K, basis
+from suspension_sim.controllers.toscano_dumas import ALPHA_B, ALPHA_K, basis
 from suspension_sim.actuators.base import ActuatorContext
 from suspension_sim.actuators.electromagnetic import ElectromagneticActuator, ElectromagneticParams, p_of_x
 from suspension_sim.components import stack_params

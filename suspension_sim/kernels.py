@@ -1,0 +1,89 @@
+"""One law, one place: a built-in component's law is a numba scalar function (one corner, or one car), and
+these generic adapters broadcast it over an ensemble for the Python loop, the environments and ``diagnose``.
+
+The compiled loop (:mod:`suspension_sim.compiled`) inlines the same functions, so the Python loop and the
+compiled loop run the same arithmetic; nothing is written twice.  The kernel signatures (see
+:mod:`suspension_sim.compiled` for the full protocol):
+
+- effect:      ``kernel(s, v, t, dt, p, st) -> float``            (one corner of one car)
+- actuator:    ``kernel_force(cmd, s, v, t, dt, p, st) -> float``  and ``kernel_advance(...) -> None``
+- controller:  ``kernel(t, y, p, st, u) -> None``                 (one car: readings y, command row u)
+
+``p`` rows are read-only parameters and ``st`` rows state the kernel updates in place; both are the float64
+arrays that the component's ``kernel_data()`` returns.
+
+The broadcasters take the law as an argument (numba compiles one specialisation per law and caches it on
+disk).  A call through numba's dispatcher costs ~10 µs for the argument typing; :func:`call` keeps the
+compiled entry point of each (broadcaster, law) pair and calls it directly (~1 µs for a small ensemble,
+cheaper than the numpy expressions these replace).
+"""
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+
+@numba.njit(cache=True)
+def broadcast_effect(kernel, s, v, t, dt, p, st, out):
+    """out[i, c] = kernel(s[i, c], v[i, c], t, dt, p[i, c], st[i, c]) for every car i and corner c."""
+    n, k = s.shape
+    for i in range(n):
+        for c in range(k):
+            out[i, c] = kernel(s[i, c], v[i, c], t, dt, p[i, c], st[i, c])
+
+
+@numba.njit(cache=True)
+def broadcast_actuator_force(kernel, cmd, s, v, t, dt, p, st, out):
+    """out[i, c] = kernel_force(cmd[i, c], s[i, c], v[i, c], t, dt, p[i, c], st[i, c])."""
+    n, k = s.shape
+    for i in range(n):
+        for c in range(k):
+            out[i, c] = kernel(cmd[i, c], s[i, c], v[i, c], t, dt, p[i, c], st[i, c])
+
+
+@numba.njit(cache=True)
+def broadcast_actuator_advance(kernel, cmd, s, v, t, dt, p, st):
+    """kernel_advance(cmd[i, c], s[i, c], v[i, c], t, dt, p[i, c], st[i, c]) for every car and corner."""
+    n, k = s.shape
+    for i in range(n):
+        for c in range(k):
+            kernel(cmd[i, c], s[i, c], v[i, c], t, dt, p[i, c], st[i, c])
+
+
+@numba.njit(cache=True)
+def broadcast_controller(kernel, t, y, p, st, u):
+    """kernel(t, y[i], p[i], st[i], u[i]) for every car i."""
+    for i in range(y.shape[0]):
+        kernel(t, y[i], p[i], st[i], u[i])
+
+
+_ENTRY: dict = {}
+
+
+def _kind(a):
+    if isinstance(a, np.ndarray):
+        return a.dtype.char, a.ndim, a.flags.c_contiguous, a.flags.writeable
+    return type(a)
+
+
+def call(broadcaster, law, *args):
+    """``broadcaster(law, *args)`` through the compiled entry point of that pair and these argument types
+    (skips numba's typing of the law argument after the first call)."""
+    key = (broadcaster, law, tuple(_kind(a) for a in args))
+    ep = _ENTRY.get(key)
+    if ep is not None:
+        return ep(law, *args)
+    out = broadcaster(law, *args)
+    sig = tuple(broadcaster.typeof_pyval(a) for a in (law,) + args)
+    cres = broadcaster.overloads.get(sig)
+    if cres is not None:
+        _ENTRY[key] = cres.entry_point
+    return out
+
+
+def f64(a) -> np.ndarray:
+    """``a`` as a float64, C-contiguous, writeable array (a copy only when needed)."""
+    a = np.asarray(a, dtype=np.float64)
+    if not a.flags.c_contiguous or not a.flags.writeable:
+        a = np.ascontiguousarray(a).copy() if not a.flags.writeable else np.ascontiguousarray(a)
+    return a
