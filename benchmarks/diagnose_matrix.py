@@ -2,7 +2,7 @@
 quarter-car record from the independent truth generator (suspension_sim/diagnose/truth.py: scipy
 solve_ivp, own effect implementations), with random strength, random road (and force input where the effect
 needs one), random sensor noise; plus no effect and two effects.  Prints a markdown table (named correctly /
-held-out NRMSE shrink) for docs/issue6_results.md.
+held-out NRMSE shrink) for docs/diagnose.md.
 
     python benchmarks/diagnose_matrix.py [--seeds 2] [--duration 10] [--only NAME,...]
 """

@@ -1,6 +1,6 @@
 """The discrepancy workflow on the real measured records of ../shared/data/real (Silverbox, EMPS, Quanser
 rig).  Each function runs one diagnosis with the benchmark's protocol and returns the numbers reported in
-docs/issue6_results.md; tests/test_diagnose_real.py asserts on them.
+docs/diagnose.md; tests/test_diagnose_real.py asserts on them.
 
     python benchmarks/diagnose_real.py [silverbox|emps|quanser] [--out DIR]
 """

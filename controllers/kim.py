@@ -33,7 +33,7 @@ continuous-time analysis promises none.
 ``rate_prediction`` (not in the paper) predicts the deflection rate T ahead in f̂ from the accelerometers;
 the scenarios set T = Tc/2 + ε/(1 + K_pf) and also run the literal law as a variant.
 
-Results (scenarios/kim_fig2..5.yaml, 5 s, errors over t >= 1 s; ``benchmarks/issue3_figures.py``):
+Results (scenarios/kim_fig2..5.yaml, 5 s, errors over t >= 1 s; ``benchmarks/figures_kim_lin.py``):
 
     Fig.  k_d   dF_d/dt   RMS(F_a − F_d)  rel. to RMS F_d   literal law (no rate_prediction)
     2     10    yes         4.3 N          1.8 %             25.7 N (11 %)
@@ -42,7 +42,7 @@ Results (scenarios/kim_fig2..5.yaml, 5 s, errors over t >= 1 s; ``benchmarks/iss
     5     1000  no          1.6 N          0.7 %              1.7 N
 
 The paper's point (Figs. 3 vs 5: without dF_d/dt a small k_d leaves a large error; with it both gains track)
-is reproduced; the paper gives no numbers.  Details and differences: docs/issue3_results.md.
+is reproduced; the paper gives no numbers.  Details and differences: docs/reproductions/kim_1996.md.
 
 Sensors (what a car with this actuator has; declare them in the scenario under these names):
 the force x (``force_sensor``, default ``actuator_force``: a load cell on the rod, which reads A·P_L − F_f, so

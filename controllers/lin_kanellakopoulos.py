@@ -59,7 +59,7 @@ position, the x3 of the filter and of K_t·x3; on a car this is a double-integra
 ignored), ``corner_body_vel`` and ``wheel_vel`` (integrated accelerometers), ``load_pressure`` and
 ``spool_position`` (``actuator_state`` sensors with ``state: load_pressure`` / ``spool_position``).
 
-Results (scenarios/lin_fig4/5.yaml; docs/issue3_results.md): travel stays inside ±8 cm; the adaptive run's
+Results (scenarios/lin_fig4/5.yaml; docs/reproductions/lin_kanellakopoulos_1996.md): travel stays inside ±8 cm; the adaptive run's
 body-acceleration deviation from the known-parameter run is 0.45 (Fig. 4) and 0.36 (Fig. 5) of the
 non-adaptive one's; ρθ̂ rises 1361 -> ~1530 (Fig. 4) and 1512.5 -> ~1680 ≈ 1.1·1512.5 (Fig. 5, the value that
 restores θ̂/γ̂ = θ/γ).  Along a trajectory, (16) and (22) hold to the sampling error (tests/test_lin.py).

@@ -1,6 +1,6 @@
 """The discrepancy workflow on real measured data (../shared/data/real; skipped when absent).  Each diagnosis
 takes longer than 30 s on this 2-core machine, so these are ``slow`` tests (run with ``-m slow``); their
-numbers are in docs/issue6_results.md (produced by benchmarks/diagnose_real.py, the same functions)."""
+numbers are in docs/diagnose.md (produced by benchmarks/diagnose_real.py, the same functions)."""
 from __future__ import annotations
 
 import sys

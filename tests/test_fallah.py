@@ -10,7 +10,7 @@
   corners); the estimator tracks the truth: Δ̇ within 1 % (RMS, relative), and the corner body velocity
   estimate equals what the paper's method must give — true corner velocity minus the moving mean of the
   true c.g. velocity over the window — within 2 % (the mean removal itself is the method's error, stated in
-  docs/issue5_results.md).
+  docs/reproductions/fallah_sorniotti_gruber.md).
 """
 from __future__ import annotations
 

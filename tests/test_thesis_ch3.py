@@ -66,7 +66,7 @@ def test_dirt_road_follows_reference_psd_better_than_passive(dirt):
     closer to the reference model's than the passive one (Parameter variations mode II: +40 % mass,
     −10 % stiffness and damping, unknown to the controller); from 2 to 8 Hz it lies below both the
     passive PSD and (by ≈ 2×) the reference's — better isolation than the reference, reported in
-    docs/issue4_results.md."""
+    docs/reproductions/vallurupalli_thesis_1996.md."""
     ts_a, ts_p = dirt["mrac"].ts, dirt["passive"].ts
     fs = 1.0 / (ts_a.t[1] - ts_a.t[0])
     sel_a, sel_p = ts_a[ts_a.t > 8], ts_p[ts_p.t > 8]

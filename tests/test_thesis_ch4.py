@@ -75,7 +75,7 @@ def test_discrete_mrac_holds_level_with_the_static_force(load_step):
 def test_dirt_road_without_loop_delay_follows_reference_better_than_passive(request):
     """The Ch. 4 controller on the dirt road, without the 0.05 s loop delay: its body-acceleration PSD is
     closer to the reference's than passive near and above resonance.  (With the thesis's delay it is not:
-    the 1000 N friction sticks the body to the rough base — see docs/issue4_results.md.)"""
+    the 1000 N friction sticks the body to the rough base — see docs/reproductions/vallurupalli_thesis_1996.md.)"""
 
     def edit(raw):
         raw["sim"]["duration"] = 24.0

@@ -1,6 +1,6 @@
-"""Paper-style figures and the numbers of docs/issue5_results.md for issue 5 (Fallah; Toscano & Dumas).
+"""Paper-style figures and the numbers of docs/reproductions/toscano_dumas.md for issue 5 (Fallah; Toscano & Dumas).
 
-    python benchmarks/issue5_figures.py [--out figures/issue5]      # runs the scenario files (~ 3 minutes)
+    python benchmarks/figures_fallah_toscano.py [--out figures/fallah_toscano]      # runs the scenario files (~ 3 minutes)
 
 Fallah (scenarios/fallah_bump.yaml, fallah_dlc.yaml), passive vs controlled: pitch and pitch rate (their
 Fig. 4), body acceleration and displacement (Fig. 5), front-left and rear-right forces with the ±f_max bounds
@@ -160,7 +160,7 @@ def toscano(out: Path):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument("--out", default="figures/issue5")
+    ap.add_argument("--out", default="figures/fallah_toscano")
     a = ap.parse_args()
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -1,8 +1,8 @@
 """Measure the quantities of Kim's Figs. 2–5 and Lin & Kanellakopoulos' Figs. 4–5 from the scenario files and
-print them as Markdown tables (the numbers in docs/issue3_results.md come from this script).
+print them as Markdown tables (the numbers in docs/reproductions/lin_kanellakopoulos_1996.md come from this script).
 
-    python benchmarks/issue3_figures.py            # full durations of the scenario files (~ a few minutes)
-    python benchmarks/issue3_figures.py --quick    # 2 s runs
+    python benchmarks/figures_kim_lin.py            # full durations of the scenario files (~ a few minutes)
+    python benchmarks/figures_kim_lin.py --quick    # 2 s runs
 
 Kim: RMS force-tracking error F_a − F_d after the first second (the start-up transient excluded), relative to
 the RMS of F_d; RMS p_e in the last second; peak body displacement |x2| after 1 s against the passive car.
