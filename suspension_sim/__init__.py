@@ -14,8 +14,7 @@ _os.environ.setdefault("MUJOCO_GL", "egl")
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     _os.environ.setdefault(_var, "1")
 
-__version__ = "0.1.0"
-
+from .version import __version__  # noqa: E402
 from .config import Scenario, load_scenario  # noqa: E402
 from .errors import ScenarioError, SimulationDiverged  # noqa: E402
 

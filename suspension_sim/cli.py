@@ -60,7 +60,7 @@ def run(
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
     from .config import load_scenario
-    from .results import write_result
+    from .outputs import write_result
     from .simulation import Simulation
 
     def go():

@@ -54,7 +54,8 @@ from dm_env import specs
 
 from .config import Scenario, load_scenario
 from .errors import ScenarioError
-from .simulation import Simulation, _full_state
+from .sensors.base import full_state_readings
+from .simulation import Simulation
 
 
 @dataclass
@@ -165,7 +166,7 @@ class SuspensionPhysics(_engine.Physics):
         state = sim._state(k * sim.dt, road, road_vel, acc, F_act, F_teff)
         readings = {ch.name: ch.sample(state) for ch in sim.sensors}
         if sim.full_state:
-            readings.update(_full_state(state))
+            readings.update(full_state_readings(state))
         return readings, state
 
 

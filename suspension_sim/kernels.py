@@ -12,18 +12,27 @@ compiled loop run the same arithmetic; nothing is written twice.  The kernel sig
 ``p`` rows are read-only parameters and ``st`` rows state the kernel updates in place; both are the float64
 arrays that the component's ``kernel_data()`` returns.
 
-The broadcasters take the law as an argument (numba compiles one specialisation per law and caches it on
-disk).  A call through numba's dispatcher costs ~10 µs for the argument typing; :func:`call` keeps the
-compiled entry point of each (broadcaster, law) pair and calls it directly (~1 µs for a small ensemble,
-cheaper than the numpy expressions these replace).
+The broadcasters take the law as an argument (numba compiles one specialisation per law, in memory: the
+comment above them says why they are not cached on disk; the laws themselves are).  A call through
+numba's dispatcher costs ~10 µs for the argument typing; :func:`call` keeps the compiled entry point of each
+(broadcaster, law) pair and calls it directly (~1 µs for a small ensemble, cheaper than the numpy
+expressions these replace).
 """
 from __future__ import annotations
 
 import numba
 import numpy as np
 
+# The broadcasters are compiled per process, not cached on disk (cache=False).  Their first argument is a
+# law (a numba dispatcher), so every law makes a new specialisation, and numba's on-disk cache keys a
+# specialisation by the law's type, which holds the identity of the dispatcher object of this process: each
+# new process appends new entries to the cache index instead of reusing the old ones, the index grows without
+# bound, and loading it eventually fails with ``ReferenceError: underlying object has vanished`` (a stale
+# entry pointing at a dispatcher of a dead process).  Compiling four tiny loops costs well under a second
+# per process; the laws they call stay ``cache=True``.
 
-@numba.njit(cache=True)
+
+@numba.njit(cache=False)  # see above: not cached on disk
 def broadcast_effect(kernel, s, v, t, dt, p, st, out):
     """out[i, c] = kernel(s[i, c], v[i, c], t, dt, p[i, c], st[i, c]) for every car i and corner c."""
     n, k = s.shape
@@ -32,7 +41,7 @@ def broadcast_effect(kernel, s, v, t, dt, p, st, out):
             out[i, c] = kernel(s[i, c], v[i, c], t, dt, p[i, c], st[i, c])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=False)  # see above: not cached on disk
 def broadcast_actuator_force(kernel, cmd, s, v, t, dt, p, st, out):
     """out[i, c] = kernel_force(cmd[i, c], s[i, c], v[i, c], t, dt, p[i, c], st[i, c])."""
     n, k = s.shape
@@ -41,7 +50,7 @@ def broadcast_actuator_force(kernel, cmd, s, v, t, dt, p, st, out):
             out[i, c] = kernel(cmd[i, c], s[i, c], v[i, c], t, dt, p[i, c], st[i, c])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=False)  # see above: not cached on disk
 def broadcast_actuator_advance(kernel, cmd, s, v, t, dt, p, st):
     """kernel_advance(cmd[i, c], s[i, c], v[i, c], t, dt, p[i, c], st[i, c]) for every car and corner."""
     n, k = s.shape
@@ -50,7 +59,7 @@ def broadcast_actuator_advance(kernel, cmd, s, v, t, dt, p, st):
             kernel(cmd[i, c], s[i, c], v[i, c], t, dt, p[i, c], st[i, c])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=False)  # see above: not cached on disk
 def broadcast_controller(kernel, t, y, p, st, u):
     """kernel(t, y[i], p[i], st[i], u[i]) for every car i."""
     for i in range(y.shape[0]):

@@ -19,9 +19,7 @@ from pydantic import Field
 
 from .components import Params, validate_params
 from .errors import ScenarioError
-from .registry import Registry
-
-MANEUVERS: Registry = Registry("manoeuvre")
+from .registry import MANEUVERS
 
 
 class ManeuverParams(Params):
@@ -163,6 +161,3 @@ def build_maneuver(scenarios, plant, source=None) -> AppliedManeuver:
                             f"{list(joints)})", source=source, field="vehicle.maneuver")
     return AppliedManeuver(mans, plant, masses, heights)
 
-
-# full-car manoeuvres in their own modules (they import MANEUVERS from here, so import them last)
-from . import maneuvers_dlc  # noqa: E402,F401  (ISO 3888-1 double lane change)

@@ -1,5 +1,5 @@
 """Name -> class registries for every pluggable piece (vehicles, effects, roads, actuators, controllers,
-metrics, sensors).
+metrics, sensors, manoeuvres).
 
 Adding a piece is one new file that registers itself::
 
@@ -29,6 +29,9 @@ _PACKAGES = [
     "suspension_sim.metrics",
     "suspension_sim.sensors",
     "suspension_sim.controllers",
+    # modules, not packages: the manoeuvres (full-car ones live in their own modules)
+    "suspension_sim.maneuvers",
+    "suspension_sim.maneuvers_dlc",
 ]
 _loaded = False
 
@@ -93,6 +96,7 @@ ACTUATORS: Registry = Registry("actuator")
 CONTROLLERS: Registry = Registry("controller")
 METRICS: Registry = Registry("metric")
 SENSORS: Registry = Registry("sensor")
+MANEUVERS: Registry = Registry("manoeuvre")
 
 
 def summary_line(obj) -> str:

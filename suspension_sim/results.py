@@ -1,4 +1,4 @@
-"""Run logs and results.
+"""One car's result: its time series and metrics (the log of a run is :mod:`.log`, files :mod:`.outputs`).
 
 A :class:`Result` holds one car's time series (a pandas DataFrame, SI units) and its metrics.  Columns:
 
@@ -14,117 +14,13 @@ A :class:`Result` holds one car's time series (a pandas DataFrame, SI units) and
 from __future__ import annotations
 
 import functools
-import json
 import platform
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-BODY_NAMES = {
-    "body_z": ("body_z", "body_vel", "body_acc"),
-    "pitch": ("pitch", "pitch_rate", "pitch_acc"),
-    "roll": ("roll", "roll_rate", "roll_acc"),
-}
-
-
-class Logger:
-    def __init__(self, sim, n_log: int):
-        self.sim = sim
-        P = sim.plant
-        self.n, self.nc, self.n_log = P.n, P.nc, n_log
-        self.t = np.zeros(n_log)
-        self.ch: dict[str, np.ndarray] = {}
-        self.sfx = P.suffixes
-
-    def _put(self, name, j, value):
-        """value: (n,) per car."""
-        arr = self.ch.get(name)
-        if arr is None:
-            arr = self.ch[name] = np.full((self.n, self.n_log), np.nan)
-        arr[:, j] = value
-
-    def _corner(self, base, j, values):
-        for c, s in enumerate(self.sfx):
-            self._put(f"{base}{s}", j, values[:, c])
-
-    def pre(self, j, t, road, road_vel, travel, rate, command, F_act, F_eff, F_teff, readings):
-        P, d = self.sim.plant, self.sim.plant.data
-        self.t[j] = t
-        for k, jn in enumerate(P.body_joints):
-            pn, vn, _ = BODY_NAMES.get(jn, (jn, f"{jn}_vel", f"{jn}_acc"))
-            self._put(pn, j, d.qpos[P.body_q[:, k]])
-            self._put(vn, j, d.qvel[P.body_v[:, k]])
-        self._corner("travel", j, travel)
-        self._corner("travel_rate", j, rate)
-        if P.has_tire:
-            self._corner("wheel_z", j, d.qpos[P.wheel_q])
-            self._corner("wheel_vel", j, d.qvel[P.wheel_v])
-            tl, tr = P.tire_deflection(d, road, road_vel)
-            self._corner("tire_force", j, -self.sim.kt * tl - self.sim.ct * tr + F_teff)
-            self._corner("tire_effect_force", j, F_teff)
-        self._corner("road", j, road)
-        self._corner("road_vel", j, road_vel)
-        self._corner("command", j, command)
-        self._corner("actuator_force", j, F_act)
-        self._corner("effect_force", j, F_eff)
-        for name, val in self.sim.actuator.states().items():
-            if name != "force":
-                self._corner(f"act.{name}", j, np.asarray(val).reshape(self.n, self.nc))
-        for name, val in readings.items():
-            if name.startswith("state."):
-                continue
-            labels = self.sim.cctx.sensors.get(name) or [str(i) for i in range(np.shape(val)[1])]
-            val = np.asarray(val).reshape(self.n, -1)
-            for c in range(val.shape[1]):
-                lab = labels[c] if c < len(labels) else str(c)
-                self._put(f"sensor.{name}.{lab}" if lab else f"sensor.{name}", j, val[:, c])
-        for name, val in self.sim.controller.signals().items():
-            val = np.asarray(val, dtype=float).reshape(self.n, -1)
-            if val.shape[1] == 1:
-                self._put(f"ctrl.{name}", j, val[:, 0])
-            else:
-                for c in range(val.shape[1]):
-                    self._put(f"ctrl.{name}.{c}", j, val[:, c])
-        for eff, sel in self.sim.effects:
-            for name, val in eff.signals().items():
-                val = np.asarray(val, dtype=float).reshape(self.n, -1)
-                for c in range(val.shape[1]):
-                    self._put(f"effect.{eff.name}.{name}.{c}", j, val[:, c])
-
-    def post(self, j, qacc):
-        P = self.sim.plant
-        for k, jn in enumerate(P.body_joints):
-            _, _, an = BODY_NAMES.get(jn, (jn, f"{jn}_vel", f"{jn}_acc"))
-            self._put(an, j, qacc[P.body_v[:, k]])
-        if P.has_tire:
-            self._corner("wheel_acc", j, qacc[P.wheel_v])
-
-    def frame(self, i: int) -> pd.DataFrame:
-        return _frame(["t", *self.ch], [self.t] + [arr[i] for arr in self.ch.values()])
-
-
-def _frame(names: list, arrs: list, shared: dict | None = None) -> pd.DataFrame:
-    if all(a.dtype == np.float64 for a in arrs):
-        # one float block: ~3x cheaper than a dict of columns (matters for batches of short runs)
-        block = np.empty((len(arrs[0]), len(arrs)))
-        for k, a in enumerate(arrs):
-            block[:, k] = a
-        if shared is not None:  # the cars of an ensemble share one (immutable) column Index: 5x cheaper
-            columns = shared.get("columns")  # (one ensemble: one channel snapshot, the same names)
-            if columns is None:
-                columns = shared["columns"] = pd.Index(names)
-            return pd.DataFrame(block, columns=columns, copy=False)
-        return pd.DataFrame(block, columns=names, copy=False)
-    return pd.DataFrame(dict(zip(names, arrs)))
-
-
-def frame_from_columns(columns: dict) -> pd.DataFrame:
-    """The DataFrame of one car's log from ``name -> 1-D array`` (``t`` first), as :meth:`Logger.frame`
-    builds it."""
-    return _frame(list(columns), list(columns.values()))
-
+from .log import Logger, frame, stop_gap_sides_all, stop_gaps_all
 
 @dataclass
 class Result:
@@ -219,7 +115,7 @@ def _ts_get(self) -> pd.DataFrame:
         src = d.get("_src")
         if src is not None:
             t, ch, i, shared = src
-            ts = d["_ts"] = _frame(["t", *ch], [t] + [arr[i] for arr in ch.values()], shared)
+            ts = d["_ts"] = frame(["t", *ch], [t] + [arr[i] for arr in ch.values()], shared)
             d["_src"] = None
     return ts
 
@@ -246,7 +142,7 @@ def _infos(sim, wall: float) -> list[dict]:
     ct = [int(c.track) for c in P.corners]
     st = np.asarray(P.static_tire, dtype=float).reshape(n, len(sfx)).tolist()
     ss = np.asarray(P.static_susp, dtype=float).reshape(n, len(sfx)).tolist()
-    gaps, sides = _stop_gaps_all(sim), _stop_gap_sides_all(sim)
+    gaps, sides = stop_gaps_all(sim), stop_gap_sides_all(sim)
     full = bool(sim.full_state)
     w = wall / P.n
     out = []
@@ -268,61 +164,6 @@ def _infos(sim, wall: float) -> list[dict]:
             "ensemble_size": P.n,
             "versions": versions(),
         })
-    return out
-
-
-def _stop_gaps_all(sim) -> list[dict]:
-    """:func:`_stop_gaps` of every car."""
-    n = sim.plant.n
-    out: list[dict] = [{} for _ in range(n)]
-    for eff, sel in sim.effects:
-        gap = getattr(eff.p, "gap", None)
-        if eff.name == "bump_stop" and gap is not None:
-            g = np.broadcast_to(np.asarray(gap, dtype=float), (n, len(sel))).tolist()
-            for k, c in enumerate(sel):
-                s = sim.plant.suffixes[c]
-                for i in range(n):
-                    out[i][s] = g[i][k]
-    return out
-
-
-def _stop_gap_sides_all(sim) -> list[dict]:
-    """:func:`_stop_gap_sides` of every car."""
-    n = sim.plant.n
-    out: list[dict] = [{} for _ in range(n)]
-    for eff, sel in sim.effects:
-        g_c, g_e = getattr(eff, "g_c", None), getattr(eff, "g_e", None)
-        if eff.name == "bump_stop" and g_c is not None and g_e is not None:
-            g_c = np.broadcast_to(np.asarray(g_c, dtype=float), (n, len(sel))).tolist()
-            g_e = np.broadcast_to(np.asarray(g_e, dtype=float), (n, len(sel))).tolist()
-            for k, c in enumerate(sel):
-                s = sim.plant.suffixes[c]
-                for i in range(n):
-                    out[i][s] = [g_c[i][k], g_e[i][k]]
-    return out
-
-
-def _stop_gaps(sim, i) -> dict:
-    out = {}
-    for eff, sel in sim.effects:
-        gap = getattr(eff.p, "gap", None)
-        if eff.name == "bump_stop" and gap is not None:
-            g = np.broadcast_to(np.asarray(gap, dtype=float), (sim.plant.n, len(sel)))
-            for k, c in enumerate(sel):
-                out[sim.plant.suffixes[c]] = float(g[i, k])
-    return out
-
-
-def _stop_gap_sides(sim, i) -> dict:
-    """suffix -> [compression gap, extension gap] (m) of a bump_stop effect (they may differ)."""
-    out = {}
-    for eff, sel in sim.effects:
-        g_c, g_e = getattr(eff, "g_c", None), getattr(eff, "g_e", None)
-        if eff.name == "bump_stop" and g_c is not None and g_e is not None:
-            g_c = np.broadcast_to(np.asarray(g_c, dtype=float), (sim.plant.n, len(sel)))
-            g_e = np.broadcast_to(np.asarray(g_e, dtype=float), (sim.plant.n, len(sel)))
-            for k, c in enumerate(sel):
-                out[sim.plant.suffixes[c]] = [float(g_c[i, k]), float(g_e[i, k])]
     return out
 
 
@@ -432,7 +273,7 @@ def versions() -> dict:
 def _versions() -> dict:  # importlib.metadata is slow: once per process, not once per car
     import mujoco
 
-    from . import __version__
+    from .version import __version__
 
     out = {"suspension_sim": __version__, "mujoco": mujoco.__version__, "python": platform.python_version(),
            "numpy": np.__version__}
@@ -443,37 +284,4 @@ def _versions() -> dict:  # importlib.metadata is slow: once per process, not on
         out["dm_control"] = version("dm-control")
     except Exception:  # pragma: no cover
         pass
-    return out
-
-
-def write_result(result: Result, out: Path, plots: bool = True, timeseries: bool = True) -> Path:
-    """Write ``timeseries.parquet``, ``summary.json``, ``scenario.resolved.yaml`` and ``plots/*.png`` (and
-    ``viewer.html`` / ``report.html`` when the scenario's ``outputs.viewer`` / ``outputs.report`` are set)."""
-    import yaml
-
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    if timeseries:
-        result.timeseries.to_parquet(out / "timeseries.parquet", index=False)
-    resolved = result.scenario.resolved_dict()
-    resolved.pop("variants", None)
-    resolved["sim"]["seed"] = result.scenario.sim.seed
-    header = (f"# resolved by suspension_sim {result.info['versions'].get('suspension_sim')} "
-              f"(mujoco {result.info['versions'].get('mujoco')}); rerun with: suspension-sim run {out / 'scenario.resolved.yaml'}\n")
-    (out / "scenario.resolved.yaml").write_text(header + yaml.safe_dump(resolved, sort_keys=False))
-    summary = {"name": result.scenario.name, "metrics": result.metrics, "info": result.info}
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
-    if plots:
-        from .plots import plot_run
-
-        plot_run({result.scenario.name: result}, out / "plots")
-    outputs = getattr(result.scenario, "outputs", None)
-    if getattr(outputs, "viewer", False):  # self-contained 3D view (suspension_sim.viewer)
-        from .viewer import write_viewer
-
-        write_viewer(result, out / "viewer.html")
-    if getattr(outputs, "report", False):  # metrics, plots and the 3D view in one page (suspension_sim.report)
-        from .report import write_report
-
-        write_report(out, result=result)
     return out

@@ -35,7 +35,7 @@ from .errors import ScenarioError, SimulationDiverged
 from .plant import Plant
 from .registry import ACTUATORS, CONTROLLERS, EFFECTS, ROADS, SENSORS
 from .roads.base import RoadContext
-from .sensors.base import PlantState, SensorChannel, SensorContext
+from .sensors.base import PlantState, SensorChannel, SensorContext, full_state_readings
 
 STRUCTURE_KEYS = ("vehicle.model", "effects", "actuator.type", "controller.type", "sensors", "sim")
 
@@ -228,7 +228,7 @@ class Simulation:
 
     def _state_widths(self) -> dict:
         """{"state.<name>": width} of the true plant quantities a full-state controller reads (the order of
-        :func:`_full_state`)."""
+        :func:`~suspension_sim.sensors.base.full_state_readings`)."""
         if not self.full_state:
             return {}
         nb, nc = len(self.plant.body_joints), self.plant.nc
@@ -497,7 +497,7 @@ class Simulation:
                 state = self._state(t, road, road_vel, acc, F_act, F_teff)
                 readings = {ch.name: ch.sample(state) for ch in self.sensors}
                 if self.full_state:
-                    readings.update(_full_state(state))
+                    readings.update(full_state_readings(state))
                 self.t, self.state = t, state
                 command = np.asarray((yield readings), dtype=float)
                 if command.shape != (n, nc):
@@ -722,16 +722,6 @@ class _PerCarRNG:
 
     def __getattr__(self, name):  # other draws: the first car's stream (single runs unchanged)
         return getattr(self.rngs[0], name)
-
-
-def _full_state(s: PlantState) -> dict:
-    out = {}
-    for k, v in s.__dict__.items():
-        if isinstance(v, np.ndarray):
-            out[f"state.{k}"] = v
-    for k, v in s.actuator_states.items():
-        out[f"state.actuator.{k}"] = v
-    return out
 
 
 def _variation_value(v, t: float, nominal):

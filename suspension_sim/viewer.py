@@ -890,9 +890,9 @@ def attach_live_viewer(sim, console=None, rate: float | None = None, fps: float 
             "static_tire_force": {s: float(P.static_tire[car, c]) for c, s in enumerate(P.suffixes)},
             "static_suspension_force": {s: float(P.static_susp[car, c]) for c, s in enumerate(P.suffixes)}}
     try:
-        from .results import _stop_gaps
+        from .log import stop_gaps_all
 
-        info["stop_gap"] = _stop_gaps(sim, car)
+        info["stop_gap"] = stop_gaps_all(sim)[car]
     except Exception:  # pragma: no cover - informative only
         info["stop_gap"] = {}
     columns = {f"{b}{s}" for s in P.suffixes for b in ("travel", "road", "actuator_force")}

@@ -25,7 +25,7 @@ selenium = pytest.importorskip("selenium", reason="selenium not installed (pip i
 
 from suspension_sim.config import parse_scenario  # noqa: E402
 from suspension_sim.report import write_report  # noqa: E402
-from suspension_sim.results import write_result  # noqa: E402
+from suspension_sim.outputs import write_result  # noqa: E402
 from suspension_sim.simulation import Simulation, simulate  # noqa: E402
 
 FLAGS = ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",

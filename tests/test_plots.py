@@ -7,7 +7,8 @@ from matplotlib.image import imread
 import suspension_sim as ss
 from suspension_sim.config import parse_scenario
 from suspension_sim.plots import plot_psd_comparison, plot_run, welch_psd
-from suspension_sim.results import Result, compute_metrics, write_result
+from suspension_sim.outputs import write_result
+from suspension_sim.results import Result, compute_metrics
 
 STANDARD = {"body_acceleration.png", "body_acc_psd.png", "suspension_travel.png", "tire_load.png",
             "actuator_force.png"}

@@ -16,7 +16,8 @@ import pytest
 pytest.importorskip("meshcat")
 
 from suspension_sim.config import parse_scenario  # noqa: E402
-from suspension_sim.results import Result, write_result  # noqa: E402
+from suspension_sim.outputs import write_result  # noqa: E402
+from suspension_sim.results import Result  # noqa: E402
 from suspension_sim.simulation import Simulation, simulate  # noqa: E402
 from suspension_sim import viewer as V  # noqa: E402
 

@@ -467,17 +467,17 @@ def _f64(a):
 
 
 class _Layout:
-    """Log channel names in the order of results.Logger, and the column tables the kernel writes through."""
+    """Log channel names in the order of log.Logger, and the column tables the kernel writes through."""
 
     def __init__(self, sim):
-        from ..results import BODY_NAMES
+        from ..channels import body_channels
 
         P = sim.plant
         self.names: list[str] = []
         nb, nc = len(P.body_joints), P.nc
         self.LC = np.full((len(LOG_ROWS), max(nb, nc)), -1, dtype=np.int64)
         self.sfx = P.suffixes
-        self._body = [BODY_NAMES.get(jn, (jn, f"{jn}_vel", f"{jn}_acc")) for jn in P.body_joints]
+        self._body = [body_channels(jn) for jn in P.body_joints]
         for k, (pn, vn, _) in enumerate(self._body):
             self.LC[0, k] = self._add(pn)
             self.LC[1, k] = self._add(vn)
@@ -783,9 +783,9 @@ def run(sim, mode: str, progress=None) -> list:
             state.actuator_states = states
             readings = {ch.name: ch.sample(state) for ch in sim.sensors}
             if sim.full_state:
-                from ..simulation import _full_state
+                from ..sensors.base import full_state_readings
 
-                readings.update(_full_state(state))
+                readings.update(full_state_readings(state))
             sim.t, sim.state = t, state
             command = np.asarray(ctrl.step(t, readings), dtype=float)
             if command.shape != (n, nc):

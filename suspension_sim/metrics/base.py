@@ -69,7 +69,7 @@ class RunView:
 def _ts_get(self) -> pd.DataFrame:
     ts = self.__dict__.get("_ts")
     if ts is None and self.__dict__.get("columns") is not None:
-        from ..results import frame_from_columns
+        from ..log import frame_from_columns
 
         ts = self.__dict__["_ts"] = frame_from_columns(self.columns)
     return ts

@@ -49,6 +49,19 @@ class PlantState:
     extra: dict = field(default_factory=dict)  # e.g. road preview, maneuver signals
 
 
+def full_state_readings(s: PlantState) -> dict:
+    """The readings a full-state controller gets on top of its sensors (``controller.full_state: true``):
+    ``"state.<field>"`` for every array field of ``s`` and ``"state.actuator.<name>"`` for every actuator
+    state."""
+    out = {}
+    for k, v in s.__dict__.items():
+        if isinstance(v, np.ndarray):
+            out[f"state.{k}"] = v
+    for k, v in s.actuator_states.items():
+        out[f"state.actuator.{k}"] = v
+    return out
+
+
 @dataclass
 class SensorContext:
     n_cars: int

@@ -1,0 +1,146 @@
+"""The log of a run (one ensemble): :class:`Logger` records the channels at every logged step.
+
+The channels and their units are listed in :mod:`suspension_sim.results`, which turns a log into one
+:class:`~suspension_sim.results.Result` per car.  :func:`stop_gaps_all` and :func:`stop_gap_sides_all` read
+the bump stops' gaps from the built system for the metrics and the 3D view.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from .channels import body_channels
+
+
+class Logger:
+    """The log of one ensemble run: ``t`` (n_log,) and ``ch`` channel name -> (n_cars, n_log) arrays.
+
+    The Python loop calls :meth:`pre` (positions, forces, readings, signals) and :meth:`post`
+    (accelerations) at each logged step; the compiled loop writes ``t`` and ``ch`` itself."""
+
+    def __init__(self, sim, n_log: int):
+        self.sim = sim
+        P = sim.plant
+        self.n, self.nc, self.n_log = P.n, P.nc, n_log
+        self.t = np.zeros(n_log)
+        self.ch: dict[str, np.ndarray] = {}
+        self.sfx = P.suffixes
+
+    def _put(self, name, j, value):
+        """value: (n,) per car."""
+        arr = self.ch.get(name)
+        if arr is None:
+            arr = self.ch[name] = np.full((self.n, self.n_log), np.nan)
+        arr[:, j] = value
+
+    def _corner(self, base, j, values):
+        for c, s in enumerate(self.sfx):
+            self._put(f"{base}{s}", j, values[:, c])
+
+    def pre(self, j, t, road, road_vel, travel, rate, command, F_act, F_eff, F_teff, readings):
+        P, d = self.sim.plant, self.sim.plant.data
+        self.t[j] = t
+        for k, jn in enumerate(P.body_joints):
+            pn, vn, _ = body_channels(jn)
+            self._put(pn, j, d.qpos[P.body_q[:, k]])
+            self._put(vn, j, d.qvel[P.body_v[:, k]])
+        self._corner("travel", j, travel)
+        self._corner("travel_rate", j, rate)
+        if P.has_tire:
+            self._corner("wheel_z", j, d.qpos[P.wheel_q])
+            self._corner("wheel_vel", j, d.qvel[P.wheel_v])
+            tl, tr = P.tire_deflection(d, road, road_vel)
+            self._corner("tire_force", j, -self.sim.kt * tl - self.sim.ct * tr + F_teff)
+            self._corner("tire_effect_force", j, F_teff)
+        self._corner("road", j, road)
+        self._corner("road_vel", j, road_vel)
+        self._corner("command", j, command)
+        self._corner("actuator_force", j, F_act)
+        self._corner("effect_force", j, F_eff)
+        for name, val in self.sim.actuator.states().items():
+            if name != "force":
+                self._corner(f"act.{name}", j, np.asarray(val).reshape(self.n, self.nc))
+        for name, val in readings.items():
+            if name.startswith("state."):
+                continue
+            labels = self.sim.cctx.sensors.get(name) or [str(i) for i in range(np.shape(val)[1])]
+            val = np.asarray(val).reshape(self.n, -1)
+            for c in range(val.shape[1]):
+                lab = labels[c] if c < len(labels) else str(c)
+                self._put(f"sensor.{name}.{lab}" if lab else f"sensor.{name}", j, val[:, c])
+        for name, val in self.sim.controller.signals().items():
+            val = np.asarray(val, dtype=float).reshape(self.n, -1)
+            if val.shape[1] == 1:
+                self._put(f"ctrl.{name}", j, val[:, 0])
+            else:
+                for c in range(val.shape[1]):
+                    self._put(f"ctrl.{name}.{c}", j, val[:, c])
+        for eff, sel in self.sim.effects:
+            for name, val in eff.signals().items():
+                val = np.asarray(val, dtype=float).reshape(self.n, -1)
+                for c in range(val.shape[1]):
+                    self._put(f"effect.{eff.name}.{name}.{c}", j, val[:, c])
+
+    def post(self, j, qacc):
+        P = self.sim.plant
+        for k, jn in enumerate(P.body_joints):
+            _, _, an = body_channels(jn)
+            self._put(an, j, qacc[P.body_v[:, k]])
+        if P.has_tire:
+            self._corner("wheel_acc", j, qacc[P.wheel_v])
+
+    def frame(self, i: int) -> pd.DataFrame:
+        return frame(["t", *self.ch], [self.t] + [arr[i] for arr in self.ch.values()])
+
+
+def frame(names: list, arrs: list, shared: dict | None = None) -> pd.DataFrame:
+    if all(a.dtype == np.float64 for a in arrs):
+        # one float block: ~3x cheaper than a dict of columns (matters for batches of short runs)
+        block = np.empty((len(arrs[0]), len(arrs)))
+        for k, a in enumerate(arrs):
+            block[:, k] = a
+        if shared is not None:  # the cars of an ensemble share one (immutable) column Index: 5x cheaper
+            columns = shared.get("columns")  # (one ensemble: one channel snapshot, the same names)
+            if columns is None:
+                columns = shared["columns"] = pd.Index(names)
+            return pd.DataFrame(block, columns=columns, copy=False)
+        return pd.DataFrame(block, columns=names, copy=False)
+    return pd.DataFrame(dict(zip(names, arrs)))
+
+
+def frame_from_columns(columns: dict) -> pd.DataFrame:
+    """The DataFrame of one car's log from ``name -> 1-D array`` (``t`` first), as :meth:`Logger.frame`
+    builds it."""
+    return frame(list(columns), list(columns.values()))
+
+
+def stop_gaps_all(sim) -> list[dict]:
+    """Per car: corner suffix -> gap (m) of the bump_stop effects (for the metrics and the 3D view)."""
+    n = sim.plant.n
+    out: list[dict] = [{} for _ in range(n)]
+    for eff, sel in sim.effects:
+        gap = getattr(eff.p, "gap", None)
+        if eff.name == "bump_stop" and gap is not None:
+            g = np.broadcast_to(np.asarray(gap, dtype=float), (n, len(sel))).tolist()
+            for k, c in enumerate(sel):
+                s = sim.plant.suffixes[c]
+                for i in range(n):
+                    out[i][s] = g[i][k]
+    return out
+
+
+def stop_gap_sides_all(sim) -> list[dict]:
+    """Per car: corner suffix -> [compression gap, extension gap] (m) of a bump_stop effect (they may
+    differ)."""
+    n = sim.plant.n
+    out: list[dict] = [{} for _ in range(n)]
+    for eff, sel in sim.effects:
+        g_c, g_e = getattr(eff, "g_c", None), getattr(eff, "g_e", None)
+        if eff.name == "bump_stop" and g_c is not None and g_e is not None:
+            g_c = np.broadcast_to(np.asarray(g_c, dtype=float), (n, len(sel))).tolist()
+            g_e = np.broadcast_to(np.asarray(g_e, dtype=float), (n, len(sel))).tolist()
+            for k, c in enumerate(sel):
+                s = sim.plant.suffixes[c]
+                for i in range(n):
+                    out[i][s] = [g_c[i][k], g_e[i][k]]
+    return out
