@@ -294,9 +294,12 @@ def test_kim_kernel_exact():
     adaptation off), and a car whose a3 estimate starts far too low so that the ĝ floor is active, with
     larger adaptation gains: + − × ÷ sqrt and comparisons only, so exact."""
     A3 = 5.176e5
-    cases = [dict(k_d=10, use_fd_dot=True),
-             dict(k_d=10, use_fd_dot=False, rate_prediction=0.0, force_sensor="actuator_force", adaptive=False),
-             dict(k_d=1000, use_fd_dot=True, a3=0.02 * A3, a2=0.9 * 15.125e9, gain_a1=1e-8, gain_a2=1e-8)]
+    g = dict(gain_a1=1e-10, gain_a2=1e-10, gain_a3=1e-10)  # the scenario's estimates and gains pinned here
+    cases = [dict(k_d=10, use_fd_dot=True, rate_prediction=0.000193, a2=15.125e9, a3=A3, **g),
+             dict(k_d=10, use_fd_dot=False, rate_prediction=0.0, force_sensor="actuator_force", adaptive=False,
+                  a2=15.125e9, a3=A3, **g),
+             dict(k_d=1000, use_fd_dot=True, a3=0.02 * A3, a2=0.9 * 15.125e9,
+                  **{**g, "gain_a1": 1e-8, "gain_a2": 1e-8})]
     sim = Simulation([_from_file("kim_fig2.yaml", 0.3, **c) for c in cases])
     # the ĝ floor is hit by car 3 only, and the spool moves both ways (both signs in sqrt|P_s − sgn(X_V)x/A_p|)
     run = _python_run(sim)

@@ -1,5 +1,7 @@
 """Kim (1996) nonlinear indirect adaptive force control (controllers/kim.py) on the hydraulic quarter car:
-the behaviours of Figs. 2–5 (1 Hz, 2.54 cm road sine)."""
+the behaviours of Figs. 2–5 (1 Hz, 2.54 cm road sine), starting from wrong estimates (a2 −20 %, a3 +20 %, the
+scenarios' default), each against its baseline (the same wrong estimates without adaptation, or the passive
+car).  The full figures: ``suspension-sim reproduce kim`` (tests/test_reproduce.py, slow)."""
 from __future__ import annotations
 
 import copy
@@ -15,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[1]
 A2, A3 = 15.125e9, 5.176e5
 
 
-def _case(duration=2.0, **params):
+def _case(duration=3.0, **params):
     sc = load_scenario(ROOT / "scenarios/kim_fig2.yaml")
     sc.variants = {}
     sc.sim.duration = duration
@@ -35,56 +37,75 @@ CASES = {"fig2": dict(k_d=10, use_fd_dot=True), "fig3": dict(k_d=10, use_fd_dot=
 
 @pytest.fixture(scope="module")
 def figs():
-    """The four cases of Figs. 2–5 as one ensemble (2 s each)."""
-    res = Simulation([_case(**p) for p in CASES.values()]).run()
-    return {k: r.ts for k, r in zip(CASES, res)}
+    """Figs. 2–5 from the wrong initial estimates, adaptive, non-adaptive and with known parameters (3 s)."""
+    runs = {}
+    for k, p in CASES.items():
+        runs[(k, "adaptive")] = _case(**p)
+        runs[(k, "nonadaptive")] = _case(adaptive=False, **p)
+        runs[(k, "known")] = _case(adaptive=False, a2=A2, a3=A3, **p)
+    res = Simulation(list(runs.values())).run()
+    return {k: r.ts for k, r in zip(runs, res)}
 
 
 def _track(ts):
-    m = ts.t >= 1.0
+    m = ts.t >= 2.0
     e = (ts["ctrl.F_a"] - ts["ctrl.F_d"])[m]
     return rms(e), rms(e) / rms(ts["ctrl.F_d"][m])
 
 
 def test_force_tracking_with_and_without_the_desired_force_derivative(figs):
-    err = {k: _track(ts) for k, ts in figs.items()}
-    # with dF_d/dt the tracking is good for both gains (Figs. 2 and 4)
-    assert err["fig2"][1] < 0.1 and err["fig4"][1] < 0.1, err
+    err = {k: _track(figs[(k, "adaptive")]) for k in CASES}
+    # with dF_d/dt both gains track (Figs. 2 and 4); k_d = 10 leaves ~9 % (the spool lag the reduced model drops)
+    assert err["fig4"][1] < 0.02 and err["fig2"][1] < 0.15, err
     # without it, k_d = 10 leaves a large error (Fig. 3), k_d = 1000 does not (Fig. 5)
     assert err["fig3"][1] > 0.3, err
     assert err["fig3"][0] > 10 * err["fig5"][0], err
-    assert err["fig5"][1] < 0.1, err
+    assert err["fig5"][1] < 0.02, err
     # and the derivative is what makes k_d = 10 work
     assert err["fig3"][0] > 5 * err["fig2"][0], err
+    # baseline: the same wrong estimates without adaptation do not track in any figure
+    for k in ("fig2", "fig4", "fig5"):
+        assert _track(figs[(k, "nonadaptive")])[0] > 10 * err[k][0], k
+    assert _track(figs[("fig3", "nonadaptive")])[0] > 1.2 * err["fig3"][0]  # Fig. 3 is bad either way
 
 
-def test_estimation_error_decays_and_estimates_stay_bounded(figs):
-    for k, ts in figs.items():
-        pe = ts["ctrl.p_e"].to_numpy()
-        t = ts.t.to_numpy()
-        assert np.all(np.isfinite(pe)), k
-        assert rms(pe[t > 1.5]) < 0.3 * np.max(np.abs(pe[t < 0.5])), k
-        assert abs(ts["ctrl.a2_hat"].iloc[-1] / A2 - 1) < 0.2, k
-        assert abs(ts["ctrl.a3_hat"].iloc[-1] / A3 - 1) < 0.2, k
-
-
-def test_adaptation_removes_an_initial_parameter_error():
-    """Not in the paper (its estimates start at the true values): a2 −5 %, a3 +5 % at k_d = 1000.  With the
-    chosen gains the (p_e, θ̃) loop converges at about 0.35 1/s (the parameter errors fall ~30 % per second),
-    so after 3 s p_e and the parameter errors must have fallen well below their starting values."""
-    ts = Simulation([_case(duration=3.0, k_d=1000, a2=0.95 * A2, a3=1.05 * A3)]).run()[0].ts
+@pytest.mark.parametrize("fig", ["fig2", "fig4", "fig5"])
+def test_estimates_converge_and_performance_approaches_the_known_case(figs, fig):
+    ts = figs[(fig, "adaptive")]
     t = ts.t.to_numpy()
     pe = ts["ctrl.p_e"].to_numpy()
-    assert rms(pe[t > 2.0]) < 0.5 * rms(pe[t < 1.0])
-    assert abs(ts["ctrl.a2_hat"].iloc[-1] - A2) < 0.4 * 0.05 * A2
-    assert abs(ts["ctrl.a3_hat"].iloc[-1] - A3) < 0.4 * 0.05 * A3
+    assert rms(pe[t > 2.0]) < 0.05 * np.max(np.abs(pe[t < 1.0]))
+    # from −20 % / +20 % to within 2 % in 3 s (Fig. 4/5 keep ~0.8 % along the poorly excited direction
+    # θ ∝ θ̂, which scales f̂ and ĝ together and barely changes the force)
+    assert abs(ts["ctrl.a2_hat"].iloc[-1] / A2 - 1) < 0.02
+    assert abs(ts["ctrl.a3_hat"].iloc[-1] / A3 - 1) < 0.02
+    e_ad, e_known, e_non = (_track(figs[(fig, v)])[0] for v in ("adaptive", "known", "nonadaptive"))
+    assert e_ad < 1.5 * e_known + 1.0, (e_ad, e_known)
+    assert e_non > 10 * e_known + 10.0, (e_non, e_known)  # the baseline stays far from the known case
+
+
+def test_kd_changes_the_excitation_not_the_estimation_equations():
+    """Kim: "k_d does not affect the estimation error system".  With a small adaptation gain (1e-10) and
+    a2 −5 %, a3 +5 %, k_d = 10 lets the uncancelled hydraulic-spring term lock the suspension, the regressor
+    A·(ẋ2 − ẋ1) collapses and the estimates stall; k_d = 1000 keeps the deflection rate and converges.  A
+    100× larger gain converges at both k_d (the claim holds once adaptation outruns the locking)."""
+    runs = {(g, kd): _case(duration=3.0, k_d=kd, a2=0.95 * A2, a3=1.05 * A3,
+                           gain_a1=g, gain_a2=g, gain_a3=g) for g in (1e-10, 1e-8) for kd in (10, 1000)}
+    res = dict(zip(runs, Simulation(list(runs.values())).run()))
+    err = {k: abs(r.ts["ctrl.a2_hat"].iloc[-1] / A2 - 1) for k, r in res.items()}
+    rate = {k: rms(r.ts.travel_rate[r.ts.t >= 2.0]) for k, r in res.items()}
+    assert err[(1e-10, 10)] > 0.04 and err[(1e-10, 1000)] < 0.025, err
+    assert rate[(1e-10, 10)] < 0.3 * rate[(1e-10, 1000)], rate
+    assert err[(1e-8, 10)] < 0.01 and err[(1e-8, 1000)] < 0.01, err
+    assert rate[(1e-8, 10)] > 0.9 * rate[(1e-8, 1000)], rate
 
 
 def test_body_motion_at_1hz_below_passive(figs):
     sc = load_scenario(ROOT / "scenarios/kim_fig2.yaml")
     passive = dict(sc.expand())["passive"]
-    passive.sim.duration = 2.0
+    passive.sim.duration = 3.0
     p = Simulation([passive]).run()[0].ts
-    peak_p = np.max(np.abs(p.body_z[p.t >= 1.0]))
-    for k, ts in figs.items():
-        assert np.max(np.abs(ts.body_z[ts.t >= 1.0])) < 0.6 * peak_p, k
+    peak_p = np.max(np.abs(p.body_z[p.t >= 2.0]))
+    for k in CASES:
+        ts = figs[(k, "adaptive")]
+        assert np.max(np.abs(ts.body_z[ts.t >= 2.0])) < 0.6 * peak_p, k

@@ -1,0 +1,230 @@
+"""The reproduction framework behind ``suspension-sim reproduce``.
+
+A *source* (one paper or thesis) is one module in this package that registers a :class:`Source` by name::
+
+    from suspension_sim.reproductions.framework import SOURCES, Item, ItemOutput, Claim, Source
+
+    def fig2(ctx):                         # ctx: Context (step factor, scenario loading, ensemble runs)
+        res = ctx.run_scenario("kim_fig2")  # dict variant -> Result
+        ...
+        return ItemOutput(claims=[Claim("force error", "small", "4 N", "reproduced")],
+                          key={"force_error": (4.0, 0.5)}, figure=fig)
+
+    SOURCES.register("kim")(Source("kim", "Kim (1996)", "docs/reproductions/kim_1996.md",
+                                   [Item("fig2", "Fig. 2: ...", fig2)]))
+
+Each item runs its scenarios, returns the paper-claim / ours / verdict rows, a figure and its *key numbers*.
+The runner writes ``<out>/<source>/<item>.png`` and ``<item>.md`` and a ``README.md`` with every table, and
+checks convergence: the item runs again with every scenario's physics and control step halved, and each key
+number must change by less than 2 % (relative to ``max(|value|, floor)``; the floor keeps a number that is
+nearly zero from failing on noise).  The verdict of the check is part of each item's table.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from ..errors import ScenarioError
+from ..registry import Registry
+
+CONVERGENCE_TOL = 0.02  # key numbers change by less than 2 % when the step is halved
+
+
+@dataclass
+class Claim:
+    """One row: what the paper claims, what we measure, the verdict (reproduced / partly / not / n.a.)."""
+    quantity: str
+    paper: str
+    ours: str
+    verdict: str
+    note: str = ""
+
+
+@dataclass
+class ItemOutput:
+    claims: list[Claim]
+    key: dict[str, tuple[float, float]] = field(default_factory=dict)  # name -> (value, floor)
+    figure: object | None = None  # a matplotlib Figure
+    notes: list[str] = field(default_factory=list)
+    tables: list[str] = field(default_factory=list)  # extra Markdown tables (e.g. a whole study)
+
+
+@dataclass
+class Item:
+    name: str
+    title: str
+    run: Callable[["Context"], ItemOutput]
+    converge: bool = True  # run again at half the step and compare the key numbers
+
+
+@dataclass
+class Source:
+    name: str
+    title: str
+    page: str
+    items: list[Item]
+
+
+SOURCES: Registry[Source] = Registry("reproduction source")
+
+
+def _load_sources() -> None:
+    import importlib
+    import pkgutil
+
+    from . import __path__ as pkg_path
+
+    for info in pkgutil.iter_modules(pkg_path):
+        if not info.name.startswith("_") and info.name != "framework":
+            importlib.import_module(f"{__package__}.{info.name}")
+
+
+def sources() -> dict[str, Source]:
+    _load_sources()
+    return {name: SOURCES._items[name] for name in sorted(SOURCES._items)}
+
+
+def scenarios_dir() -> Path:
+    d = Path(__file__).resolve().parents[2] / "scenarios"
+    if not d.is_dir():
+        raise ScenarioError("the reproductions need the scenario files of a source checkout "
+                            f"(not found: {d})")
+    return d
+
+
+class Context:
+    """What an item gets: the step factor (1, or 0.5 in the convergence run) and helpers that load the
+    source's scenario files and run them as ensembles, reporting progress."""
+
+    def __init__(self, step_factor: float = 1.0, progress: Callable[[str, float], None] | None = None):
+        self.step_factor = step_factor
+        self._progress = progress or (lambda label, f: None)
+
+    def scenario(self, name: str, sets: list[str] | None = None):
+        """Load ``scenarios/<name>.yaml`` with ``path=value`` overrides; the step is scaled by the factor."""
+        from ..config import load_scenario
+
+        sc = load_scenario(scenarios_dir() / f"{name}.yaml", sets or [])
+        self.scale_step(sc)
+        return sc
+
+    def scale_step(self, sc):
+        if self.step_factor != 1.0:
+            sc.sim.dt = sc.sim.dt * self.step_factor
+            sc.sim.control_dt = sc.sim.control_dt * self.step_factor
+        return sc
+
+    def variants(self, name: str, sets: list[str] | None = None, only: list[str] | None = None) -> dict:
+        """The scenario's variants as resolved scenarios (step scaled), optionally only some of them."""
+        sc = self.scenario(name, sets)
+        out = {}
+        for vname, v in sc.expand(str(scenarios_dir() / f"{name}.yaml")):
+            if only is None or vname in only:
+                out[vname] = self.scale_step(v) if self.step_factor != 1.0 and v is not sc else v
+        return out
+
+    def run(self, scenarios: dict, label: str = "") -> dict:
+        """Run ``{label: Scenario}``; structurally equal scenarios run as one ensemble."""
+        from ..simulation import Simulation, structure_key
+
+        groups: dict = {}
+        for name, v in scenarios.items():
+            groups.setdefault(structure_key(v), []).append((name, v))
+        out = {}
+        for k, members in enumerate(groups.values()):
+            text = f"{label} ({', '.join(n for n, _ in members)})"
+            res = Simulation([v for _, v in members]).run(progress=lambda f, t=text: self._progress(t, f))
+            out.update({name: r for (name, _), r in zip(members, res)})
+        return out
+
+    def run_scenario(self, name: str, sets: list[str] | None = None, only: list[str] | None = None) -> dict:
+        return self.run(self.variants(name, sets, only), label=name)
+
+
+def rel_change(a: float, b: float, floor: float) -> float:
+    if not (math.isfinite(a) and math.isfinite(b)):
+        return float("inf") if a != b else 0.0
+    return abs(b - a) / max(abs(a), floor, 1e-300)
+
+
+def _md_table(header: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(str(c).replace("|", "\\|") for c in r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def fmt(x: float, digits: int = 3) -> str:
+    if x is None or not math.isfinite(x):
+        return str(x)
+    return f"{x:.{digits}g}"
+
+
+def run_item(item: Item, converge: bool, progress=None) -> dict:
+    """Run an item (and its half-step twin); returns a dict with the output, the convergence table and a
+    pass flag."""
+    out = item.run(Context(1.0, progress))
+    conv = None
+    if converge and item.converge and out.key:
+        half = item.run(Context(0.5, progress))
+        conv = []
+        for k, (v, floor) in out.key.items():
+            v2 = half.key.get(k, (float("nan"), floor))[0]
+            conv.append((k, v, v2, rel_change(v, v2, floor)))
+    return {"out": out, "conv": conv}
+
+
+def item_markdown(source: Source, item: Item, r: dict) -> str:
+    out, conv = r["out"], r["conv"]
+    md = [f"### {item.title}", "", f"![{item.name}]({item.name}.png)" if out.figure is not None else "", ""]
+    md.append(_md_table(["quantity", "paper", "ours", "verdict", "note"],
+                        [[c.quantity, c.paper, c.ours, c.verdict, c.note] for c in out.claims]))
+    for t in out.tables:
+        md += ["", t]
+    if conv is not None:
+        ok = all(c[3] < CONVERGENCE_TOL for c in conv)
+        md += ["", f"Step halving: {'converged' if ok else 'NOT converged'} (every key number must change by "
+                   f"less than {CONVERGENCE_TOL:.0%} when the physics and control steps are halved).", ""]
+        md.append(_md_table(["key number", "step", "half step", "change"],
+                            [[k, fmt(a, 4), fmt(b, 4), f"{c * 100:.2f} %"] for k, a, b, c in conv]))
+    elif item.converge is False:
+        md += ["", "Step halving: not run for this item (see its notes)."]
+    for n in out.notes:
+        md += ["", n]
+    return "\n".join(md) + "\n"
+
+
+def write_item(folder: Path, source: Source, item: Item, r: dict) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    out = r["out"]
+    if out.figure is not None:
+        import matplotlib.pyplot as plt
+
+        out.figure.savefig(folder / f"{item.name}.png", dpi=70)
+        plt.close(out.figure)
+    (folder / f"{item.name}.md").write_text(item_markdown(source, item, r))
+
+
+def summary(r: dict) -> dict:
+    out, conv = r["out"], r["conv"]
+    return {
+        "claims": [c.__dict__ for c in out.claims],
+        "key": {k: v for k, (v, _) in out.key.items()},
+        "convergence": None if conv is None else
+        {k: {"step": a, "half_step": b, "change": c, "converged": c < CONVERGENCE_TOL} for k, a, b, c in conv},
+    }
+
+
+def finish_source(folder: Path, source: Source, results: dict) -> None:
+    md = [f"# {source.title}", "", f"Generated by `suspension-sim reproduce {source.name}`; the page that "
+          f"discusses these results: `{source.page}`.", ""]
+    for item in source.items:
+        if item.name in results:
+            md.append(item_markdown(source, item, results[item.name]))
+    (folder / "README.md").write_text("\n".join(md))
+    (folder / "summary.json").write_text(json.dumps(
+        {name: summary(r) for name, r in results.items()}, indent=2, default=float))
