@@ -27,4 +27,16 @@ def simulate(scenario, **kwargs):
     return _simulate(scenario, **kwargs)
 
 
+def _register_gym_envs():
+    """``gymnasium.make("suspension_sim/QuarterCar-v0")`` etc. work after ``import suspension_sim``."""
+    try:
+        from .rl import register_envs
+
+        register_envs()
+    except ImportError:  # pragma: no cover - gymnasium missing
+        pass
+
+
+_register_gym_envs()
+
 __all__ = ["Scenario", "load_scenario", "simulate", "ScenarioError", "SimulationDiverged", "__version__"]

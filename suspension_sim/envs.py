@@ -1,4 +1,5 @@
-"""A ``dm_control`` reinforcement-learning environment around a scenario.
+"""A ``dm_control`` reinforcement-learning environment around a scenario (``make_env(..., api="gymnasium")``
+gives the Gymnasium one of :mod:`suspension_sim.rl`).
 
 ::
 
@@ -240,16 +241,28 @@ def _scenario(scenario, variant, source):
     return scenario, source
 
 
-def make_env(scenario, variant: str | None = None, *, w_acc: float = 1.0, w_travel: float = 1e3,
-             w_force: float = 1e-7, w_tire: float = 0.0, action_bound: float | None = None,
-             reseed: bool = False, flat_observation: bool = False) -> control.Environment:
+def make_env(scenario, variant: str | None = None, *, api: str = "dm_control", w_acc: float = 1.0,
+             w_travel: float = 1e3, w_force: float = 1e-7, w_tire: float = 0.0, action_bound: float | None = None,
+             reseed: bool = False, flat_observation: bool = False, **gym_kwargs):
     """A ``dm_control`` ``control.Environment`` for one scenario (path or :class:`Scenario`).
+
+    ``api="gymnasium"`` returns a Gymnasium environment instead (:func:`suspension_sim.rl.env.make_gym_env`:
+    its own reward, normalised actions, ``num_envs=N`` for the compiled ensemble; the keyword arguments after
+    ``api`` are then those of that function).
 
     ``variant`` picks one of the scenario's variants.  Reward weights as in the module docstring.
     ``action_bound`` sets the action spec's bounds when the actuator has no ``max_force``.  ``reseed``: each
     new episode uses ``sim.seed`` (and the road seed) + episode index, so the road and the sensor noise
     change between episodes (the first episode is the scenario as written).
     """
+    if api == "gymnasium":
+        from .rl.env import make_gym_env
+
+        return make_gym_env(scenario, variant, **gym_kwargs)
+    if api != "dm_control":
+        raise ValueError(f"api must be 'dm_control' or 'gymnasium', got {api!r}")
+    if gym_kwargs:
+        raise TypeError(f"make_env: unexpected argument(s) {', '.join(gym_kwargs)} for the dm_control api")
     sc, source = _scenario(scenario, variant, None)
     ctrl = sc.controller.model_copy(update={"type": "passive", "params": {}})
     sc = sc.model_copy(update={"controller": ctrl})

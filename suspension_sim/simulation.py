@@ -223,7 +223,8 @@ class Simulation:
             corner_y=self.geom.corner_y, control_dt=self.control_dt, dt=self.dt, vehicle_model=sc0.vehicle.model,
             vehicle=vparams, sensors={ch.name: ch.sensor.labels() for ch in self.sensors},
             actuator=sc0.actuator.type, command_unit=acls.command_unit, full_state=self.full_state,
-            static_suspension_force=P.static_susp.copy(), state_widths=self._state_widths())
+            static_suspension_force=P.static_susp.copy(), state_widths=self._state_widths(),
+            extra={"actuator_params": ap})  # e.g. the policy controller's default action scale
         self.controller = ccls(cp, self.cctx)
 
     def _state_widths(self) -> dict:

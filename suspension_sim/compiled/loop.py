@@ -568,6 +568,19 @@ def metric_channels(suffixes) -> set | None:
 
 def run(sim, mode: str, progress=None) -> list:
     """Run ``sim`` with the compiled loop (``mode`` from :func:`plan`); the Results of the Python loop."""
+    steps = run_steps(sim, mode, progress)
+    try:
+        readings = next(steps)
+        while True:  # hybrid: the controller in Python at each control instant
+            readings = steps.send(sim.controller.step(sim.t, readings))
+    except StopIteration as stop:
+        return stop.value
+
+
+def run_steps(sim, mode: str, progress=None):
+    """:func:`run` as a generator: in the hybrid mode it yields the sensor readings at each control instant
+    (``sim.t``, ``sim.state`` set) and takes the command (n_cars, n_corners) by ``send`` (step-wise use, e.g.
+    the reinforcement-learning envs of :mod:`suspension_sim.rl`); returns the Results (``StopIteration.value``)."""
     from ..errors import SimulationDiverged
     from ..results import Logger, Result
     from ..sensors.base import PlantState  # noqa: F401  (documented type of sim.state)
@@ -787,7 +800,7 @@ def run(sim, mode: str, progress=None) -> list:
 
                 readings.update(full_state_readings(state))
             sim.t, sim.state = t, state
-            command = np.asarray(ctrl.step(t, readings), dtype=float)
+            command = np.asarray((yield readings), dtype=float)
             if command.shape != (n, nc):
                 command = np.broadcast_to(command, (n, nc)).astype(float)
             cmd[:] = command
