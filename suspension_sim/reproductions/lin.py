@@ -303,10 +303,24 @@ def table1(ctx) -> ItemOutput:
               f"largest |ΔJ| of A, α, γ {max(big):.0%}; of all others {max(small):.1%}",
               "partly", "only the under-compensating direction is much worse"),
     ]
+    import matplotlib.pyplot as plt
+
+    labels = [f"{r[0]} {r[1]}" for r in rows]
+    dj = np.array([key[f"dJ {lab}"][0] for lab in labels])
+    colours = {"s.b.": "tab:green", "n.c.": "0.6", "s.w.": "tab:orange", "m.w.": "tab:red"}
+    fig, ax = plt.subplots(figsize=(7.5, 5.5))
+    y = np.arange(len(rows))[::-1]
+    ax.barh(y, 100 * dj, color=[colours[r[2].rstrip("*")] for r in rows])
+    ax.set_xscale("symlog", linthresh=2.0)
+    ax.axvspan(-1, 1, color="0.92", zorder=0)  # our n.c. band
+    ax.set_yticks(y, [f"{lab}  (paper {r[2]}, ours {r[3]})" for lab, r in zip(labels, rows)], fontsize=7)
+    ax.set_xlabel("ΔJ = change of RMS body acc 0.5–1.5 s (%); bar colour = the paper's verdict")
+    ax.set_title("Lin & Kanellakopoulos Table 1 (non-adaptive, one value wrong at a time)", fontsize=9)
+    fig.tight_layout()
     table = _md_table(["parameter", "error", "paper", "ours", "ΔJ", "peak travel (cm)", "agree"], rows)
     notes = [f"J0 = {m0['J']:.2f} m/s² (RMS body acceleration 0.5–1.5 s, correct values), peak travel "
              f"{m0['travel'] * 100:.2f} cm. " + classify.__doc__.replace("\n    ", " ")]
-    return ItemOutput(claims, key=key, notes=notes, tables=[table])
+    return ItemOutput(claims, key=key, figure=fig, notes=notes, tables=[table])
 
 
 SOURCES.register("lin")(Source(
