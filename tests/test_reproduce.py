@@ -58,6 +58,20 @@ def test_step_halving_flags_a_step_dependent_number():
     assert change == pytest.approx(0.05 / 1.1) and change > fw.CONVERGENCE_TOL
 
 
+def test_half_step_run_halves_the_step_of_every_variant():
+    """The convergence run uses exactly half the scenario's physics and control step, variants included."""
+    def item(ctx):
+        v = ctx.variants("kim_fig2")
+        sc = ctx.scenario("lin_fig4")
+        return fw.ItemOutput([], key={"dt_kim": (v["kim"].sim.dt, 0.0), "cdt_known": (v["known"].sim.control_dt, 0.0),
+                                      "dt_lin": (sc.sim.dt, 0.0)})
+
+    r = fw.run_item(fw.Item("x", "x", item), converge=True)
+    for name, a, b, change in r["conv"]:
+        assert b == pytest.approx(0.5 * a, rel=1e-12), name
+    assert r["out"].key["dt_kim"][0] == pytest.approx(1e-4)
+
+
 def test_reproduce_lists_sources_and_rejects_unknown_ones():
     r = runner.invoke(app, ["reproduce", "--list"])
     assert r.exit_code == 0 and "kim" in r.output and "lin" in r.output

@@ -121,11 +121,17 @@ class Context:
 
     def variants(self, name: str, sets: list[str] | None = None, only: list[str] | None = None) -> dict:
         """The scenario's variants as resolved scenarios (step scaled), optionally only some of them."""
-        sc = self.scenario(name, sets)
-        out = {}
+        sc = self.scenario(name, sets)  # step already scaled; the variants inherit it (a variant that sets
+        out = {}                        # its own sim.dt is scaled below)
         for vname, v in sc.expand(str(scenarios_dir() / f"{name}.yaml")):
             if only is None or vname in only:
-                out[vname] = self.scale_step(v) if self.step_factor != 1.0 and v is not sc else v
+                over = ((sc.variants or {}).get(vname) or {}).get("sim", {})
+                if v is not sc and self.step_factor != 1.0:
+                    if "dt" in over:
+                        v.sim.dt = v.sim.dt * self.step_factor
+                    if "control_dt" in over:
+                        v.sim.control_dt = v.sim.control_dt * self.step_factor
+                out[vname] = v
         return out
 
     def run(self, scenarios: dict, label: str = "") -> dict:
