@@ -46,6 +46,8 @@ def test_reproduce_writes_figure_table_and_step_halving(tiny_source, tmp_path):
     conv = s["convergence"]["acc"]
     assert conv["step"] != conv["half_step"]  # the half-step run really ran with another step
     assert conv["converged"] == (conv["change"] < fw.CONVERGENCE_TOL)
+    index = (tmp_path / "README.md").read_text()
+    assert "[tiny_test](tiny_test/README.md)" in index and "[one](tiny_test/one.md)" in index
 
 
 def test_step_halving_flags_a_step_dependent_number():

@@ -64,6 +64,7 @@ def register(app: typer.Typer) -> None:
             for name, res in results.items():
                 fw.finish_source(out / name, srcs[name], res)
                 _print(console, srcs[name], res, fw)
+            fw.write_index(out, {n: srcs[n] for n in results}, results)
             console.print(f"reproductions written under [bold]{out}[/]")
 
         guarded(go)
@@ -76,11 +77,5 @@ def _print(console, src, res, fw):
     for col in ("item", "verdicts", "step halving"):
         table.add_column(col)
     for name, r in res.items():
-        verdicts = ", ".join(c.verdict for c in r["out"].claims if c.verdict != "n.a.")
-        conv = "not run"
-        if r["conv"] is not None:
-            worst = max(r["conv"], key=lambda c: c[3])
-            conv = (("converged" if worst[3] < fw.CONVERGENCE_TOL else "NOT converged")
-                    + f" (worst {worst[0]}: {worst[3] * 100:.1f} %)")
-        table.add_row(name, verdicts, conv)
+        table.add_row(name, *fw.verdict_row(r))
     console.print(table)
