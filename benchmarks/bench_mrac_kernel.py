@@ -27,9 +27,10 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-from suspension_sim.controllers.thesis_common import FB_HEADER, fb_update, fb_y, fb_yu, k_dot
+from suspension_sim.controllers.thesis_common import ZOH_HEADER, k_dot, zoh_update, zoh_y, zoh_yu
 from suspension_sim.controllers.thesis_mrac_continuous import (
     _FILTERS,
+    _LAY,
     _PG,
     _PS,
     _ST_B0,
@@ -42,13 +43,14 @@ from suspension_sim.controllers.thesis_mrac_continuous import (
     _ST_RX,
     _ST_TH,
     _ST_U,
+    _SIZES,
 )
 
 N_CALLS = 100_000
 REPEATS = 5
 
 # ---- the generic kernel before the specialisation (verbatim) ------------------------------------------------
-_HEF, _HP, _HSP, _HP2, _HSP2, _HP1, _HREF = (FB_HEADER * i for i in range(len(_FILTERS)))
+_HEF, _HP, _HSP, _HP2, _HSP2, _HP1, _HREF = (ZOH_HEADER * i for i in range(len(_FILTERS)))
 
 
 @numba.njit
@@ -69,28 +71,28 @@ def _old_kernel(t, y, p, st, u):
     k_v = p[_PS + 5]
     alpha = p[_PS + 6]
     # regressor φ and P1·φ (as step: filter outputs before this step's update)
-    st[_ST_PHI] = fb_y(p, st, _HP, 0, 0)
-    st[_ST_PHI + 1] = fb_y(p, st, _HSP, 0, 0)
-    st[_ST_PHI + 2] = fb_y(p, st, _HP, 1, 0)
-    st[_ST_PHI + 3] = -fb_y(p, st, _HSP, 1, 0)
-    st[_ST_PHI + 4] = -fb_y(p, st, _HP, 2, 0)
-    st[_ST_PHI + 5] = fb_y(p, st, _HP, 3, 0)
+    st[_ST_PHI] = zoh_y(p, st, _HP, 0, 0)
+    st[_ST_PHI + 1] = zoh_y(p, st, _HSP, 0, 0)
+    st[_ST_PHI + 2] = zoh_y(p, st, _HP, 1, 0)
+    st[_ST_PHI + 3] = -zoh_y(p, st, _HSP, 1, 0)
+    st[_ST_PHI + 4] = -zoh_y(p, st, _HP, 2, 0)
+    st[_ST_PHI + 5] = zoh_y(p, st, _HP, 3, 0)
     st[_ST_U + 1] = x
     st[_ST_U + 2] = w
     st[_ST_U + 3] = 1.0
-    st[_ST_P1PHI] = fb_y(p, st, _HP2, 0, 0)
-    st[_ST_P1PHI + 1] = fb_yu(p, st, _HSP2, 0, 0, st, _ST_U + 1)
-    st[_ST_P1PHI + 2] = fb_y(p, st, _HP2, 1, 0)
-    st[_ST_P1PHI + 3] = -fb_yu(p, st, _HSP2, 1, 0, st, _ST_U + 2)
-    st[_ST_P1PHI + 4] = -fb_y(p, st, _HP2, 2, 0)
-    st[_ST_P1PHI + 5] = fb_y(p, st, _HP2, 3, 0)
-    xr0 = fb_y(p, st, _HREF, 0, 0)
-    xr1 = fb_y(p, st, _HREF, 0, 1)
+    st[_ST_P1PHI] = zoh_y(p, st, _HP2, 0, 0)
+    st[_ST_P1PHI + 1] = zoh_yu(p, st, _HSP2, 0, 0, st, _ST_U + 1)
+    st[_ST_P1PHI + 2] = zoh_y(p, st, _HP2, 1, 0)
+    st[_ST_P1PHI + 3] = -zoh_yu(p, st, _HSP2, 1, 0, st, _ST_U + 2)
+    st[_ST_P1PHI + 4] = -zoh_y(p, st, _HP2, 2, 0)
+    st[_ST_P1PHI + 5] = zoh_y(p, st, _HP2, 3, 0)
+    xr0 = zoh_y(p, st, _HREF, 0, 0)
+    xr1 = zoh_y(p, st, _HREF, 0, 1)
     e = x - xr0
     st[_ST_E] = e
-    ef = fb_yu(p, st, _HEF, 0, 0, st, _ST_E)
+    ef = zoh_yu(p, st, _HEF, 0, 0, st, _ST_E)
     ed = xd - xr1
-    FP1 = fb_y(p, st, _HP1, 0, 0)
+    FP1 = zoh_y(p, st, _HP1, 0, 0)
     b0 = st[_ST_B0]
     eta = -(FP1 + k_dot(st, _ST_PHI, st, _ST_TH, 6))
     eps = ef + b0 * eta + k_v * ed
@@ -111,14 +113,14 @@ def _old_kernel(t, y, p, st, u):
     # advance the filters with this step's inputs
     st[_ST_U] = F
     for c in range(4):
-        fb_update(p, st, _HP, c, st, _ST_U + c)
-        fb_update(p, st, _HP2, c, st, _ST_U + c)
+        zoh_update(p, st, _HP, c, st, _ST_U + c)
+        zoh_update(p, st, _HP2, c, st, _ST_U + c)
     for c in range(2):
-        fb_update(p, st, _HSP, c, st, _ST_U + 1 + c)
-        fb_update(p, st, _HSP2, c, st, _ST_U + 1 + c)
-    fb_update(p, st, _HP1, 0, st, _ST_U)
-    fb_update(p, st, _HREF, 0, st, _ST_U + 2)
-    fb_update(p, st, _HEF, 0, st, _ST_E)
+        zoh_update(p, st, _HSP, c, st, _ST_U + 1 + c)
+        zoh_update(p, st, _HSP2, c, st, _ST_U + 1 + c)
+    zoh_update(p, st, _HP1, 0, st, _ST_U)
+    zoh_update(p, st, _HREF, 0, st, _ST_U + 2)
+    zoh_update(p, st, _HEF, 0, st, _ST_E)
     st[_ST_F] = F
     st[_ST_RX] = xr0
     st[_ST_RA] = -p[_PS + 14] * xr1 - p[_PS + 15] * (xr0 - w)
@@ -197,8 +199,9 @@ def main():
     print(f"  speed-up                 {t_old / t_new:8.2f} ×")
     # Θ, b0, F and the signals, and the filter states (not the scratch columns, which the new kernel leaves)
     cols = list(range(_ST_PHI))
-    for nm, so in ctrl._kso.items():
-        cols += range(so, so + getattr(ctrl, nm).x[0].size)
+    for nm, (_, so) in _LAY.items():
+        ns, _, _, copies = _SIZES[nm]
+        cols += range(so, so + copies * ns)
     same = np.array_equal(st_old[cols], st_new[cols]) and a_old == a_new
     print(f"  final states and command sums bit-identical: {same}; finite: {bool(np.all(np.isfinite(st_new)))}")
 

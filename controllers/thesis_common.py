@@ -1,9 +1,19 @@
-"""Shared pieces of the thesis controllers (Vallurupalli 1996, Ch. 3–7): vectorised discrete filters,
-recursive least squares with covariance addition, the d-step-ahead predictor (Goodwin–Sin) of a DARMA
-model with matrix polynomials, and the reference models.
+"""Shared pieces of the thesis controllers (Vallurupalli 1996, Ch. 3–7).
 
-Not a controller itself (nothing is registered here).  Every array is vectorised over the ensemble: a
-leading axis ``n_cars``.
+Each thesis controller is its design (computed once in ``reset`` from its parameters), its law (a numba
+kernel for one car, :mod:`suspension_sim.compiled`) and the layout of the kernel's rows ``p`` (parameters)
+and ``st`` (state).  The base :class:`controllers.base.Controller` broadcasts the kernel over an ensemble
+for the Python loop; the compiled loop inlines it.  This module holds what several of them share:
+
+- design: :class:`ZOHFilter` (a continuous LTI filter discretised by zero-order hold), :func:`darma`,
+  :func:`predictor`, :func:`theta_from_predictor`, :func:`am_poly`, the estimator design
+  :class:`DiscreteMRAC`, and :func:`shared_value`;
+- layout: :class:`KernelLayout`;
+- kernel helpers: :func:`zoh_y` / :func:`zoh_yu` / :func:`zoh_update` (run a ZOHFilter), :func:`dm_step`
+  (one step of the discrete MRAC of Ch. 4 and 7), the dot products and sums :func:`k_dot`,
+  :func:`k_dot_seq`, :func:`k_sum_pw`, and :func:`stamped_cache`.
+
+Not a controller itself (nothing is registered here).
 """
 from __future__ import annotations
 
@@ -14,10 +24,8 @@ import numba
 import numpy as np
 from scipy.signal import cont2discrete
 
-GRAVITY = 9.81
 
-
-def _f(x) -> float:
+def shared_value(x) -> float:
     """The single value of a stacked parameter.  The thesis controllers build one design (filters, DARMA
     model, Riccati gains) for the whole ensemble, so their parameters must be equal across its cars; an
     ensemble whose cars differ in them raises a ScenarioError (run such cars as separate simulations)."""
@@ -30,74 +38,43 @@ def _f(x) -> float:
     return float(a[0])
 
 
-class FilterBank:
-    """``k`` copies of one continuous LTI filter (A, B, C, D), discretised by zero-order hold at ``dt``
-    (``scipy.signal.cont2discrete``), run on inputs of shape (n_cars, k, n_in).
+class ZOHFilter:
+    """A continuous LTI filter (A, B, C, D) discretised by zero-order hold at ``dt``
+    (``scipy.signal.cont2discrete``): x[k+1] = Ad x[k] + Bd u[k], y[k] = Cd x[k] + Dd u[k], run in a kernel
+    as ``copies`` independent copies per car (:func:`zoh_y`, :func:`zoh_yu`, :func:`zoh_update`).
 
-    :meth:`output` gives y[k] = C x[k] + D u[k] (the state holds the inputs up to k−1), :meth:`update`
-    advances the state with u[k].  A strictly proper filter (D = 0) can therefore take a signal that is only
-    computed from its own output (no algebraic loop)."""
+    The state holds the inputs up to k−1, so the output before this step's update lags the input by one
+    sample when D = 0: a signal computed from the filter's own output can be fed back without an algebraic
+    loop."""
 
-    def __init__(self, A, B, C, D, dt: float, n: int, k: int = 1, method: str = "zoh"):
+    def __init__(self, A, B, C, D, dt: float, copies: int = 1, method: str = "zoh"):
         Ad, Bd, Cd, Dd, _ = cont2discrete((np.atleast_2d(A), np.atleast_2d(B), np.atleast_2d(C),
                                            np.atleast_2d(D)), dt, method=method)
         self.Ad, self.Bd, self.Cd, self.Dd = Ad, Bd, Cd, Dd
-        self.x = np.zeros((n, k, Ad.shape[0]))
+        self.copies = copies
 
     @classmethod
-    def tf(cls, num, den, dt, n, k=1):
+    def tf(cls, num, den, dt, copies=1):
         """From a transfer function (numerator/denominator coefficients, highest power first)."""
         from scipy.signal import tf2ss
 
         A, B, C, D = tf2ss(num, den)
-        return cls(A, B, C, D, dt, n, k)
+        return cls(A, B, C, D, dt, copies)
 
-    def output(self, u=None) -> np.ndarray:
-        y = np.einsum("oj,nkj->nko", self.Cd, self.x)
-        if u is not None and np.any(self.Dd):
-            y = y + np.einsum("oi,nki->nko", self.Dd, np.asarray(u).reshape(y.shape[0], y.shape[1], -1))
-        return y
+    @property
+    def n_states(self) -> int:
+        return self.Ad.shape[0]
 
-    def update(self, u) -> None:
-        u = np.asarray(u, dtype=float).reshape(self.x.shape[0], self.x.shape[1], -1)
-        self.x = np.einsum("ij,nkj->nki", self.Ad, self.x) + np.einsum("ij,nkj->nki", self.Bd, u)
-
-    def kernel_pack(self, lay, hp: int) -> int:
-        """Store this FilterBank in a KernelLayout: matrices in p, state (per car) and scratch in st, the header
-        at the reserved p columns hp..hp+FB_HEADER−1.  Returns the state's first st column."""
-        n, k, ns = self.x.shape
-        nin, nout = self.Bd.shape[1], self.Cd.shape[0]
+    def pack(self, lay, hp: int) -> int:
+        """Place the filter in a KernelLayout: matrices in p, the zero state of every copy and a scratch in
+        st, the header (ZOH_HEADER values) at the reserved p columns hp on.  Returns the state's first st
+        column."""
+        ns, nin, nout = self.n_states, self.Bd.shape[1], self.Cd.shape[0]
         po = lay.p(np.concatenate([self.Ad.ravel(), self.Bd.ravel(), self.Cd.ravel(), self.Dd.ravel()]))
-        so = lay.st(self.x.reshape(n, k * ns), per_car=True)
+        so = lay.st(np.zeros(self.copies * ns))
         sc = lay.st(np.zeros(ns))
         lay.set_p(hp, [po, ns, nin, nout, so, sc, float(np.any(self.Dd))])
         return so
-
-    def kernel_sync(self, st: np.ndarray, so: int) -> None:
-        """Take the filter state back from a kernel's st rows (column so on, as kernel_pack placed it)."""
-        n, k, ns = self.x.shape
-        self.x = np.array(st[:, so:so + k * ns]).reshape(n, k, ns)
-
-
-def rls_update(theta, P, phi, target, q, trace_max: float):
-    """One step of recursive least squares with covariance addition (Vogel & Edgar, thesis Eq. 4.56),
-    vectorised over cars; matrix form with a shared covariance (thesis Ch. 7).
-
-    theta (n, p, m) parameter matrix, P (n, p, p), phi (n, p) regressor, target (n, m): the model is
-    target ≈ thetaᵀ phi.  After the update P ← P − Pφφᵀ P/(1 + φᵀPφ) + q·I; the addition is dropped for a
-    car whose trace of P would exceed ``trace_max``.  Returns the prediction error (n, m) before the update.
-    """
-    Pphi = np.einsum("nij,nj->ni", P, phi)
-    denom = 1.0 + np.einsum("ni,ni->n", phi, Pphi)
-    err = target - np.einsum("npm,np->nm", theta, phi)
-    theta += np.einsum("np,nm->npm", Pphi / denom[:, None], err)
-    P -= np.einsum("ni,nj->nij", Pphi, Pphi) / denom[:, None, None]
-    p = P.shape[1]
-    Q = np.diag(np.broadcast_to(np.asarray(q, dtype=float), (p,)))  # q: scalar or one value per parameter
-    add = (np.trace(P, axis1=1, axis2=2) + np.trace(Q)) < trace_max
-    P += np.where(add[:, None, None], Q[None], 0.0)
-    P[:] = 0.5 * (P + np.transpose(P, (0, 2, 1)))
-    return err
 
 
 def darma(Ac, Bc, Cc, dt):
@@ -174,16 +151,18 @@ def am_poly(wn: float, zeta: float, dt: float):
 
 
 class DiscreteMRAC:
-    """Discrete direct MRAC of thesis Ch. 4 (SISO) and Ch. 7 (MIMO, matrix least squares), vectorised.
+    """Design of the discrete direct MRAC of thesis Ch. 4 (SISO) and Ch. 7 (MIMO, matrix least squares);
+    the law is the kernel helper :func:`dm_step`.
 
     DARMA model A(q⁻¹)Y[k] = q⁻ᴰ B(q⁻¹) U[k] + c with m outputs and m inputs (``darma`` + ``predictor``);
     control law U[k] = Θᵀ φ[k] with φ[k] = [−Y[k], −Y[k−1], −U[k−1], …, −U[k−D], −1, Ȳ*[k+D]] where
     Ȳ*[k+D] = a_m(q⁻¹)Y*[k+D] is the filtered reference output; Θ is estimated by recursive least squares
     on the identity U[k−D] = Θᵀ φ̃[k−D] (φ̃ carries the measured Ȳ[k] = a_m(q⁻¹)Y[k] in its last block),
-    with covariance addition q·I bounded by a trace limit (Vogel–Edgar) and one covariance P shared by the
-    m columns of Θ (the thesis's matrix least squares).  After each update the β0⁻¹ block (the rows of
-    Ȳ*) is projected: its diagonal keeps the sign of the nominal value and a magnitude between
-    ``beta_inv_range`` × nominal (the thesis's sign/magnitude constraint on (β0)⁻¹).
+    with covariance addition q·I bounded by a trace limit (Vogel–Edgar, thesis Eq. 4.56:
+    P ← P − Pφφᵀ P/(1 + φᵀPφ) + Q, Q dropped while trace(P) + trace(Q) would reach ``trace_max``) and one
+    covariance P shared by the m columns of Θ (the thesis's matrix least squares).  After each update the
+    β0⁻¹ block (the rows of Ȳ*) is projected: its diagonal keeps the sign of the nominal value and a
+    magnitude between ``beta_inv_range`` × nominal (the thesis's sign/magnitude constraint on (β0)⁻¹).
 
     ``kappa`` < 1 weights the control increments (Goodwin–Sin weighted one-step-ahead control with the
     cost (Y − Y*)² + λ(ΔU)², κ = β0²/(β0² + λ)): U[k] = κ·Θᵀφ[k] + (1 − κ)·U[k−1].  The pure d-step-ahead
@@ -195,227 +174,59 @@ class DiscreteMRAC:
     and covariance addition, so that it can track load changes quickly while the model parameters adapt
     slowly (less drift when the excitation is poor, e.g. a manoeuvre on a flat road).
 
-    The regressor is scaled internally by the nominal magnitudes of Θ (parameters of order 1), so one
-    scalar ``p0`` and ``q`` serve all entries.
+    The regressor is scaled by the nominal magnitudes of Θ (parameters of order 1), so one scalar ``p0``
+    and ``q`` serve all entries; the kernel state holds the scaled Θ.
     """
 
-    def __init__(self, theta0, m, D, am, n, p0, q, trace_max, beta_inv_range=(0.2, 5.0), u_max=None,
+    def __init__(self, theta0, m, D, am, p0, q, trace_max, beta_inv_range=(0.2, 5.0), u_max=None,
                  bias_scale=1000.0, kappa=1.0, p0_bias=None, q_bias=None):
         self.kappa = kappa
-        self.m, self.D, self.am, self.n = m, D, np.asarray(am, dtype=float), n
+        self.m, self.D, self.am = m, D, np.asarray(am, dtype=float)
         theta0 = np.asarray(theta0, dtype=float)
-        self.p = theta0.shape[0]
+        self.npar = theta0.shape[0]
         # scaling: per-row magnitude of the nominal Θ (floor for zero rows: bias)
         sc = np.max(np.abs(theta0), axis=1)
         sc[sc == 0] = bias_scale
         self.sc = sc
-        self.theta = np.tile((theta0 / sc[:, None])[None], (n, 1, 1))
-        ib = self.p - m - 1  # row of the bias (regressor −1)
-        d0 = np.full(self.p, float(p0))
+        self.theta0 = theta0 / sc[:, None]  # scaled
+        ib = self.npar - m - 1  # row of the bias (regressor −1)
+        d0 = np.full(self.npar, float(p0))
         d0[ib] = p0 if p0_bias is None else p0_bias
-        self.P = np.tile(np.diag(d0)[None], (n, 1, 1))
-        self.q = np.full(self.p, float(q))
+        self.P0 = np.diag(d0)
+        self.q = np.full(self.npar, float(q))
         self.q[ib] = q if q_bias is None else q_bias
         self.trace_max = trace_max
-        self.bi = slice(self.p - m, self.p)
-        self.bi_nom = np.diag(theta0[self.bi]) / sc[self.bi]
-        self.bi_range = beta_inv_range
+        bi = slice(self.npar - m, self.npar)
+        bi_nom = np.diag(theta0[bi]) / sc[bi]
+        self.bounds = [sorted((beta_inv_range[0] * bi_nom[i], beta_inv_range[1] * bi_nom[i])) for i in range(m)]
         self.u_max = u_max
-        nh = 2 * D + 3
-        self.Y = np.zeros((n, nh, m))  # Y[k], Y[k−1], ...
-        self.U = np.zeros((n, nh, m))  # U[k−1], U[k−2], ...
-        self.Phi = np.zeros((n, D + 1, self.p))  # regressors of k, k−1, …, k−D
-        self.err = np.zeros((n, m))
+        self.n_hist = 2 * D + 3  # Y[k], Y[k−1], … and U[k−1], U[k−2], … kept
 
-    def _phi(self, ybar_star):
-        parts = [-self.Y[:, 0], -self.Y[:, 1]] + [-self.U[:, j] for j in range(self.D)]
-        parts += [-np.ones((self.n, 1)), ybar_star]
-        return np.concatenate(parts, axis=1) * self.sc[None, :]
+    def theta0_unscaled(self) -> np.ndarray:
+        """The initial Θ (p × m) in physical units (as the kernel's Θ signal gives it)."""
+        return self.theta0 * self.sc[:, None]
 
-    def step(self, y, ybar_star, estimate=True):
-        """y (n, m): output at k; ybar_star (n, m): a_m(q⁻¹)Y*[k+D].  Returns U[k] (n, m)."""
-        self.Y = np.roll(self.Y, 1, axis=1)
-        self.Y[:, 0] = y
-        am = self.am
-        ybar = am[0] * y + am[1] * self.Y[:, 1] + am[2] * self.Y[:, 2]
-        if estimate:
-            phi_old = self.Phi[:, self.D - 1].copy()  # regressor of k − D
-            started = np.any(phi_old != 0, axis=1)
-            phi_old[:, self.bi] = ybar * self.sc[None, self.bi]
-            u_old = self.U[:, self.D - 1]  # U[k−D]
-            if np.any(started):
-                th, P = self.theta[started], self.P[started]
-                self.err[started] = rls_update(th, P, phi_old[started], u_old[started], self.q, self.trace_max)
-                d = th[:, self.bi, :]  # (n', m, m) block: rows of Ȳ*
-                for i in range(self.m):
-                    lo, hi = sorted((self.bi_range[0] * self.bi_nom[i], self.bi_range[1] * self.bi_nom[i]))
-                    d[:, i, i] = np.clip(d[:, i, i], lo, hi)
-                th[:, self.bi, :] = d
-                self.theta[started], self.P[started] = th, P
-        phi = self._phi(ybar_star)
-        u = np.einsum("npm,np->nm", self.theta, phi)
-        if self.kappa < 1.0:  # weighted control increments: low-pass of the d-step-ahead solution
-            u = self.kappa * u + (1.0 - self.kappa) * self.U[:, 0]
-        if self.u_max is not None:
-            u = np.clip(u, -self.u_max, self.u_max)
-        self.Phi = np.roll(self.Phi, 1, axis=1)
-        self.Phi[:, 0] = phi
-        self.U = np.roll(self.U, 1, axis=1)
-        self.U[:, 0] = u
-        return u
-
-    @property
-    def theta_unscaled(self):
-        return self.theta * self.sc[None, :, None]
-
-    def kernel_pack(self, lay, hd: int) -> None:
-        """Store this estimator in a KernelLayout for dm_step: state per car in st, constants in p, the
-        header at the reserved p columns hd..hd+DM_HEADER−1 (numpy's trace order needs p ≤ 128)."""
-        n, npar, m = self.theta.shape
+    def pack(self, lay, hd: int, n: int) -> None:
+        """Place the estimator in a KernelLayout for :func:`dm_step`: its initial state in st, constants in
+        p, the header at the reserved p columns hd..hd+DM_HEADER−1.  The summation order of Θᵀφ follows Θ's
+        storage: along p for m = 1 or a lone car (n = 1), along m for an ensemble (see DM_HEADER)."""
+        npar, m, D, nh = self.npar, self.m, self.D, self.n_hist
         if npar > 128:
             raise ValueError("dm_step sums trace(P) pairwise for at most 128 parameters")
-        nh = self.Y.shape[1]
-        pc = self._theta_p_contiguous()
-        so = {nm: lay.st(self._kernel_view(nm, pc).reshape(n, -1), per_car=True)
-              for nm in ("theta", "P", "Y", "U", "Phi", "err")}
+        pc = m == 1 or n == 1
+        so = {"theta": lay.st((self.theta0.T if pc else self.theta0).ravel()),
+              "P": lay.st(self.P0.ravel()), "Y": lay.st(np.zeros(nh * m)), "U": lay.st(np.zeros(nh * m)),
+              "Phi": lay.st(np.zeros((D + 1) * npar)), "err": lay.st(np.zeros(m))}
         scr = lay.st(np.zeros(3 * npar + 2 * m))
         sc = lay.p(self.sc)
         q = lay.p(self.q)
-        bnd = [sorted((self.bi_range[0] * self.bi_nom[i], self.bi_range[1] * self.bi_nom[i])) for i in range(m)]
-        lo = lay.p([b[0] for b in bnd])
-        hi = lay.p([b[1] for b in bnd])
-        trQ = float(np.trace(np.diag(np.broadcast_to(np.asarray(self.q, dtype=float), (npar,)))))
+        lo = lay.p([b[0] for b in self.bounds])
+        hi = lay.p([b[1] for b in self.bounds])
+        trQ = float(np.trace(np.diag(self.q)))
         am = [float(a) for a in self.am[:3]]
-        lay.set_p(hd, [m, self.D, npar, nh, so["theta"], so["P"], so["Y"], so["U"], so["Phi"], so["err"], scr,
+        lay.set_p(hd, [m, D, npar, nh, so["theta"], so["P"], so["Y"], so["U"], so["Phi"], so["err"], scr,
                        sc, q, trQ, float(self.trace_max), lo, hi, *am, float(self.kappa),
                        float(self.u_max is not None), 0.0 if self.u_max is None else float(self.u_max), float(pc)])
-        self._kso = so
-        self._kpc = pc
-
-    def _theta_p_contiguous(self) -> bool:
-        return self.theta.shape[2] == 1 or self.theta.strides[1] == self.theta.itemsize
-
-    def _kernel_view(self, nm, pc):
-        a = getattr(self, nm)
-        return a.transpose(0, 2, 1) if nm == "theta" and pc else a
-
-    def kernel_sync(self, st: np.ndarray) -> None:
-        """Take the estimator state back from a kernel's st rows (as kernel_pack placed it)."""
-        n = st.shape[0]
-        for nm, off in self._kso.items():
-            v = self._kernel_view(nm, self._kpc)  # written in place: Θ keeps its memory layout (summation order)
-            v[...] = st[:, off:off + v.size // n].reshape(v.shape)
-
-
-# ---------------------------------------------------------------------------------------------------------
-# Compiled kernels (see suspension_sim.compiled): scalar numba helpers for one car.  The rows p (parameters)
-# and st (state) of a thesis controller are built by KernelLayout; a FilterBank stores its discrete
-# matrices in p and its state in st (FilterBank.kernel_pack) and is run by fb_y / fb_yu / fb_update.
-#
-# Summation order.  np.einsum (optimize=False, the default) sums a reduction over an axis that is
-# contiguous in both of two operands with the baseline-SIMD loop sum_of_products_contig_contig_outstride0_two:
-# on x86-64 (baseline SSE2, 2 doubles per vector, multiply then add, no FMA) the even terms accumulate in
-# lane 0 and the odd terms in lane 1, unrolled by 8 (terms i+6, i+4, i+2, i of a block of 8 added in that
-# order), and the result is lane0 + lane1 (k_dot).  A strided reduction (e.g. over p of theta (n, p, m)
-# with m > 1) and a three-operand product are summed in order from 0.0 (k_dot_seq).  tests/
-# test_kernels_thesis.py checks both rules against np.einsum on random data, so a numpy build that sums
-# differently is caught there.
-# ---------------------------------------------------------------------------------------------------------
-# numba's on-disk cache of a kernel is keyed by its own file and bytecode only: a controller's kernel that
-# calls these helpers would be loaded unchanged after an edit of this file.  stamped_cache adds a hash of
-# this file to the key of a controller kernel's cache.
-KERNEL_STAMP = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
-
-
-def stamped_cache(dispatcher):
-    """Decorator (outside ``numba.njit(cache=True)``): key the function's on-disk cache also to this
-    file's source (KERNEL_STAMP), so that an edit here recompiles the kernels that inline its helpers.
-    Uses numba's FunctionCache._index_key; without it (another numba) the cache stays as numba makes it."""
-    try:
-        from numba.core.caching import FunctionCache
-    except ImportError:  # pragma: no cover
-        return dispatcher
-    if not isinstance(getattr(dispatcher, "_cache", None), FunctionCache) or not hasattr(FunctionCache, "_index_key"):
-        return dispatcher  # pragma: no cover
-
-    class _StampedCache(FunctionCache):
-        def _index_key(self, sig, codegen):
-            return (*super()._index_key(sig, codegen), KERNEL_STAMP)
-
-    dispatcher._cache = _StampedCache(dispatcher.py_func)
-    return dispatcher
-
-
-@numba.njit(cache=True)
-def k_dot(a, ao, b, bo, n):
-    """Σ_j a[ao + j]·b[bo + j], j < n, in np.einsum's order for a reduction contiguous in both operands."""
-    l0 = 0.0
-    l1 = 0.0
-    i = 0
-    while n - i >= 8:
-        l0 = (((l0 + a[ao + i + 6] * b[bo + i + 6]) + a[ao + i + 4] * b[bo + i + 4])
-              + a[ao + i + 2] * b[bo + i + 2]) + a[ao + i] * b[bo + i]
-        l1 = (((l1 + a[ao + i + 7] * b[bo + i + 7]) + a[ao + i + 5] * b[bo + i + 5])
-              + a[ao + i + 3] * b[bo + i + 3]) + a[ao + i + 1] * b[bo + i + 1]
-        i += 8
-    while i < n:
-        l0 = l0 + a[ao + i] * b[bo + i]
-        if i + 1 < n:
-            l1 = l1 + a[ao + i + 1] * b[bo + i + 1]
-        i += 2
-    return l0 + l1
-
-
-@numba.njit(cache=True)
-def k_dot_seq(a, ao, sa, b, bo, sb, n):
-    """Σ_j a[ao + j·sa]·b[bo + j·sb] summed in order from 0.0 (np.einsum's order for a strided reduction)."""
-    acc = 0.0
-    for j in range(n):
-        acc += a[ao + j * sa] * b[bo + j * sb]
-    return acc
-
-
-# FilterBank header in p (7 values at hp): matrices offset, n states, n inputs, n outputs, state offset in
-# st, scratch offset in st (n states), D ≠ 0.  Matrices at po: Ad (ns·ns), Bd (ns·nin), Cd (nout·ns),
-# Dd (nout·nin), row-major; the state of copy c at st[so + c·ns : so + (c + 1)·ns].
-FB_HEADER = 7
-
-
-@numba.njit(cache=True)
-def fb_y(p, st, hp, c, o):
-    """Output o of copy c without feed-through, Cd x (FilterBank.output())."""
-    po = int(p[hp])
-    ns = int(p[hp + 1])
-    nin = int(p[hp + 2])
-    so = int(p[hp + 4])
-    return k_dot(p, po + ns * ns + ns * nin + o * ns, st, so + c * ns, ns)
-
-
-@numba.njit(cache=True)
-def fb_yu(p, st, hp, c, o, u, uo):
-    """Output o of copy c with the inputs u[uo : uo + nin] (FilterBank.output(u)): Cd x + Dd u."""
-    y = fb_y(p, st, hp, c, o)
-    if p[hp + 6] != 0.0:
-        po = int(p[hp])
-        ns = int(p[hp + 1])
-        nin = int(p[hp + 2])
-        nout = int(p[hp + 3])
-        y = y + k_dot(p, po + ns * ns + ns * nin + nout * ns + o * nin, u, uo, nin)
-    return y
-
-
-@numba.njit(cache=True)
-def fb_update(p, st, hp, c, u, uo):
-    """Advance copy c with the inputs u[uo : uo + nin] (FilterBank.update): x ← Ad x + Bd u."""
-    po = int(p[hp])
-    ns = int(p[hp + 1])
-    nin = int(p[hp + 2])
-    so = int(p[hp + 4]) + c * ns
-    sc = int(p[hp + 5])
-    for i in range(ns):
-        st[sc + i] = k_dot(p, po + i * ns, st, so, ns) + k_dot(p, po + ns * ns + i * nin, u, uo, nin)
-    for i in range(ns):
-        st[so + i] = st[sc + i]
 
 
 class KernelLayout:
@@ -465,6 +276,112 @@ class KernelLayout:
         return out[0], out[1]
 
 
+# ---------------------------------------------------------------------------------------------------------
+# Kernel helpers: scalar numba functions for one car, reading p and st rows laid out by KernelLayout.
+#
+# Summation order.  The sums keep a fixed order, that of the numpy implementation the kernels replaced, so
+# that results stay bit-identical across versions: k_dot adds the even terms and the odd terms in two
+# running sums (unrolled by 8: terms i+6, i+4, i+2, i of a block of 8 in that order) and returns their sum
+# (np.einsum's order for a reduction contiguous in both operands on x86-64); k_dot_seq sums in order from
+# 0.0; k_sum_pw in numpy's pairwise order (np.trace).
+# ---------------------------------------------------------------------------------------------------------
+# numba's on-disk cache of a kernel is keyed by its own file and bytecode only: a controller's kernel that
+# calls these helpers would be loaded unchanged after an edit of this file.  stamped_cache adds a hash of
+# this file to the key of a controller kernel's cache.
+KERNEL_STAMP = hashlib.sha256(Path(__file__).read_bytes()).hexdigest()[:16]
+
+
+def stamped_cache(dispatcher):
+    """Decorator (outside ``numba.njit(cache=True)``): key the function's on-disk cache also to this
+    file's source (KERNEL_STAMP), so that an edit here recompiles the kernels that inline its helpers.
+    Uses numba's FunctionCache._index_key; without it (another numba) the cache stays as numba makes it."""
+    try:
+        from numba.core.caching import FunctionCache
+    except ImportError:  # pragma: no cover
+        return dispatcher
+    if not isinstance(getattr(dispatcher, "_cache", None), FunctionCache) or not hasattr(FunctionCache, "_index_key"):
+        return dispatcher  # pragma: no cover
+
+    class _StampedCache(FunctionCache):
+        def _index_key(self, sig, codegen):
+            return (*super()._index_key(sig, codegen), KERNEL_STAMP)
+
+    dispatcher._cache = _StampedCache(dispatcher.py_func)
+    return dispatcher
+
+
+@numba.njit(cache=True)
+def k_dot(a, ao, b, bo, n):
+    """Σ_j a[ao + j]·b[bo + j], j < n: even and odd terms in two running sums, then their sum."""
+    l0 = 0.0
+    l1 = 0.0
+    i = 0
+    while n - i >= 8:
+        l0 = (((l0 + a[ao + i + 6] * b[bo + i + 6]) + a[ao + i + 4] * b[bo + i + 4])
+              + a[ao + i + 2] * b[bo + i + 2]) + a[ao + i] * b[bo + i]
+        l1 = (((l1 + a[ao + i + 7] * b[bo + i + 7]) + a[ao + i + 5] * b[bo + i + 5])
+              + a[ao + i + 3] * b[bo + i + 3]) + a[ao + i + 1] * b[bo + i + 1]
+        i += 8
+    while i < n:
+        l0 = l0 + a[ao + i] * b[bo + i]
+        if i + 1 < n:
+            l1 = l1 + a[ao + i + 1] * b[bo + i + 1]
+        i += 2
+    return l0 + l1
+
+
+@numba.njit(cache=True)
+def k_dot_seq(a, ao, sa, b, bo, sb, n):
+    """Σ_j a[ao + j·sa]·b[bo + j·sb] summed in order from 0.0."""
+    acc = 0.0
+    for j in range(n):
+        acc += a[ao + j * sa] * b[bo + j * sb]
+    return acc
+
+
+# ZOHFilter header in p (7 values at hp): matrices offset, n states, n inputs, n outputs, state offset in
+# st, scratch offset in st (n states), D ≠ 0 (ZOHFilter.pack).  Matrices at po: Ad (ns·ns), Bd (ns·nin), Cd (nout·ns),
+# Dd (nout·nin), row-major; the state of copy c at st[so + c·ns : so + (c + 1)·ns].
+ZOH_HEADER = 7
+
+
+@numba.njit(cache=True)
+def zoh_y(p, st, hp, c, o):
+    """Output o of copy c of a ZOHFilter without feed-through: y = Cd x."""
+    po = int(p[hp])
+    ns = int(p[hp + 1])
+    nin = int(p[hp + 2])
+    so = int(p[hp + 4])
+    return k_dot(p, po + ns * ns + ns * nin + o * ns, st, so + c * ns, ns)
+
+
+@numba.njit(cache=True)
+def zoh_yu(p, st, hp, c, o, u, uo):
+    """Output o of copy c with the inputs u[uo : uo + nin]: y = Cd x + Dd u."""
+    y = zoh_y(p, st, hp, c, o)
+    if p[hp + 6] != 0.0:
+        po = int(p[hp])
+        ns = int(p[hp + 1])
+        nin = int(p[hp + 2])
+        nout = int(p[hp + 3])
+        y = y + k_dot(p, po + ns * ns + ns * nin + nout * ns + o * nin, u, uo, nin)
+    return y
+
+
+@numba.njit(cache=True)
+def zoh_update(p, st, hp, c, u, uo):
+    """Advance copy c with the inputs u[uo : uo + nin]: x ← Ad x + Bd u."""
+    po = int(p[hp])
+    ns = int(p[hp + 1])
+    nin = int(p[hp + 2])
+    so = int(p[hp + 4]) + c * ns
+    sc = int(p[hp + 5])
+    for i in range(ns):
+        st[sc + i] = k_dot(p, po + i * ns, st, so, ns) + k_dot(p, po + ns * ns + i * nin, u, uo, nin)
+    for i in range(ns):
+        st[so + i] = st[sc + i]
+
+
 @numba.njit(cache=True)
 def k_sum_pw(a, ao, sa, n):
     """Σ_j a[ao + j·sa], j < n ≤ 128, in the order of numpy's pairwise summation (np.sum, np.trace): in
@@ -504,8 +421,8 @@ def k_sum_pw(a, ao, sa, n):
 # DiscreteMRAC header in p (DM_HEADER values at hd): m, D, n parameters, n history; st offsets of Θ (p·m),
 # P (p·p), Y (nh·m), U (nh·m), Φ ((D+1)·p), err (m), scratch (3p + 2m: Pφ, φ_old, φ, Ȳ, u); p offsets of
 # the scaling (p), q (p); trace(Q), trace bound; p offsets of the (β0)⁻¹ bounds lo (m), hi (m); a_m (3);
-# κ; u_max set (0/1), u_max; Θ contiguous along p (0/1: then np.einsum sums Θᵀφ as k_dot, else in order;
-# np.tile of the transposed nominal Θ leaves a lone car's Θ (1, p, m) in that layout, an ensemble's C-ordered).
+# κ; u_max set (0/1), u_max; Θ stored along p (0/1: then Θᵀφ is summed as k_dot, else in order with
+# k_dot_seq; DiscreteMRAC.pack stores it along p for m = 1 or a lone car, as the former numpy version did).
 DM_HEADER = 24
 
 
@@ -518,9 +435,21 @@ def dm_theta_strides(p, hd):
 
 
 @numba.njit(cache=True)
+def dm_theta_dot(st, TH, tj, tc, c, v, npar):
+    """Column c of Θᵀφ with φ = st[v : v + npar], summed as k_dot when Θ is stored along p (tj = 1), else in
+    order."""
+    if tj == 1:
+        return k_dot(st, TH + c * tc, st, v, npar)
+    return k_dot_seq(st, TH + c * tc, tj, st, v, 1, npar)
+
+
+@numba.njit(cache=True)
 def dm_step(p, st, hd, y, yo, ybs, ybo, estimate):
-    """DiscreteMRAC.step for one car: y[yo : yo + m] the output Y[k], ybs[ybo : ybo + m] the filtered
-    target Ȳ*[k+D].  U[k] is left in the newest U slot, st[U : U + m] (U = int(p[hd + 7]))."""
+    """One step of the discrete MRAC (:class:`DiscreteMRAC`) for one car: y[yo : yo + m] the output Y[k],
+    ybs[ybo : ybo + m] the filtered target Ȳ*[k+D].  Shifts the histories, updates Θ and P by recursive
+    least squares on the identity U[k−D] = Θᵀφ̃[k−D] (covariance addition while trace(P) + trace(Q) stays
+    below the bound, then the (β0)⁻¹ projection), and computes U[k] = κ·Θᵀφ[k] + (1 − κ)·U[k−1], clipped to
+    ±u_max when set.  U[k] is left in the newest U slot, st[U : U + m] (U = int(p[hd + 7]))."""
     m = int(p[hd])
     D = int(p[hd + 1])
     npar = int(p[hd + 2])
@@ -558,13 +487,7 @@ def dm_step(p, st, hd, y, yo, ybs, ybo, estimate):
                 st[PPHI + i] = k_dot(st, PP + i * npar, st, PHO, npar)
             denom = 1.0 + k_dot(st, PHO, st, PPHI, npar)
             for c in range(m):
-                if m == 1:
-                    pred = k_dot(st, TH, st, PHO, npar)
-                elif tj == 1:
-                    pred = k_dot(st, TH + c * tc, st, PHO, npar)
-                else:
-                    pred = k_dot_seq(st, TH + c * tc, tj, st, PHO, 1, npar)
-                st[ER + c] = st[U + (D - 1) * m + c] - pred
+                st[ER + c] = st[U + (D - 1) * m + c] - dm_theta_dot(st, TH, tj, tc, c, PHO, npar)
             for j in range(npar):
                 g = st[PPHI + j] / denom
                 for c in range(m):
@@ -602,12 +525,7 @@ def dm_step(p, st, hd, y, yo, ybs, ybo, estimate):
         j += 1
     kappa = p[hd + 20]
     for c in range(m):
-        if m == 1:
-            uc = k_dot(st, TH, st, PHI, npar)
-        elif tj == 1:
-            uc = k_dot(st, TH + c * tc, st, PHI, npar)
-        else:
-            uc = k_dot_seq(st, TH + c * tc, tj, st, PHI, 1, npar)
+        uc = dm_theta_dot(st, TH, tj, tc, c, PHI, npar)
         if kappa < 1.0:
             uc = kappa * uc + (1.0 - kappa) * st[U + c]
         if p[hd + 21] != 0.0:

@@ -33,9 +33,8 @@ accelerometer in practice).  Sensors: ``travel`` (z_s, z_p), ``travel_rate``, ``
 Signals: ``ref_z.0/1`` (reference rattle spaces), ``err.0/1``, ``ref_acc`` (reference secondary-mass
 absolute acceleration), ``kp.k``, ``uax.k``.
 
-Compiled kernel (``_kernel``, :mod:`suspension_sim.compiled`): ``step`` for one car, bit-identical to it
-(the two BLAS products of ``step`` are exact in any order here: R2, R3 diagonal, P⁻¹ of 0 and 1);
-tests/test_kernels_thesis.py.
+The law is the numba kernel ``_kernel`` for one car (the base Controller broadcasts it over an ensemble,
+the compiled loop inlines it); tests/test_kernels_thesis.py checks it against the equations above.
 """
 from __future__ import annotations
 
@@ -48,7 +47,7 @@ from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
-from .thesis_common import FB_HEADER, FilterBank, KernelLayout, _f, fb_update, fb_y, k_dot, stamped_cache
+from .thesis_common import ZOH_HEADER, KernelLayout, ZOHFilter, k_dot, shared_value, stamped_cache, zoh_update, zoh_y
 
 
 class MDOFParams(Params):
@@ -69,19 +68,15 @@ class MDOFParams(Params):
     adapt_model: bool = Field(True, description="adapt M0, C0, K0, D0 as well (False: only K_p, K_v, U_ax)")
 
 
-# ---- compiled kernel (suspension_sim.compiled): MDOFAdaptive.step for one car ------------------------------
+# ---- the law: one control step for one car (suspension_sim.compiled) ---------------------------------------
 # p: sensor offsets (travel, travel_rate, road[-1], road_vel[-1]); h, α, β, σ, adapt_model; R2, R3, P⁻¹
 # (2 × 2 each), rows 2–3 of the reference A (2 × 4) and B (2); the reference filter's header; a table of the
 # 7 gains (_KEYS order: n columns, p offset of [v_scale, G0, g_scale, limit], st offsets of I, G and the
 # regressor); then those blocks.  st: the signals ref_z = Z_m (2), err = E (2), ref_acc, ref_x; ẇ_prev,
 # ẇ_prev set; scratch x_r (4), ẍ_r (2), Ż_m, Z̈_m, Ė, Θ, v, tot (2 each), ẅ, 1; then I and G of each gain
 # (the signals kp and uax are G's blocks), the filter state.
-#
-# Θ = E R2ᵀ + Ė R3ᵀ and U = tot P⁻ᵀ are BLAS products in step; the kernel sums them in order.  Both are exact
-# whatever the order: R2, R3 are diagonal (Ω1, Ω2 are multiples of I, so the Lyapunov solution is), P⁻¹ has
-# entries 0 and 1 — the products with 0 and 1 are exact (a non-diagonal Ω would need a tolerance).
 _KEYS = ("kp", "kv", "uax", "m0", "c0", "k0", "d0")
-_P_R2, _P_R3, _P_PI, _P_AR, _P_BR, _P_REF, _P_KEYS = 9, 13, 17, 21, 29, 31, 31 + FB_HEADER
+_P_R2, _P_R3, _P_PI, _P_AR, _P_BR, _P_REF, _P_KEYS = 9, 13, 17, 21, 29, 31, 31 + ZOH_HEADER
 _ST_ZM, _ST_E, _ST_RA, _ST_RX, _ST_WDP, _ST_HAS = 0, 2, 4, 5, 6, 7
 _ST_XR, _ST_XA, _ST_ZMD, _ST_ZMDD, _ST_ED, _ST_TH, _ST_V, _ST_TOT, _ST_WDD, _ST_ONE = 8, 12, 14, 16, 18, 20, 22, 24, 26, 27
 _ST_N = 28
@@ -102,7 +97,7 @@ def _kernel(t, y, p, st, u):
     st[_ST_HAS] = 1.0
     st[_ST_WDD] = wdd
     for o in range(4):
-        st[_ST_XR + o] = fb_y(p, st, _P_REF, 0, o)
+        st[_ST_XR + o] = zoh_y(p, st, _P_REF, 0, o)
     for i in range(2):
         st[_ST_XA + i] = k_dot(p, _P_AR + 4 * i, st, _ST_XR, 4) + p[_P_BR + i] * w
     st[_ST_ZM] = st[_ST_XR] - st[_ST_XR + 1]
@@ -157,7 +152,7 @@ def _kernel(t, y, p, st, u):
                            + k_dot(st, gkv + 2 * i, st, _ST_ED, 2))
     for i in range(2):
         u[i] = st[_ST_TOT] * p[_P_PI + 2 * i] + st[_ST_TOT + 1] * p[_P_PI + 2 * i + 1]
-    fb_update(p, st, _P_REF, 0, y, int(p[2]))
+    zoh_update(p, st, _P_REF, 0, y, int(p[2]))
     st[_ST_RA] = st[_ST_XA]
     st[_ST_RX] = st[_ST_XR]
 
@@ -168,23 +163,26 @@ class MDOFAdaptive(Controller):
 
     Params = MDOFParams
     requires = ("travel", "travel_rate", "road", "road_vel")
+    kernel = staticmethod(_kernel)
 
     def reset(self):
-        p, n, h = self.p, self.ctx.n_cars, self.ctx.control_dt
+        super().reset()
+        p, h = self.p, self.ctx.control_dt
         if self.ctx.n_corners != 2:
             from suspension_sim.errors import ScenarioError
 
             raise ScenarioError("thesis_mdof_adaptive needs the two-actuator model 'two_dof'", field="controller.type")
-        Ms, Mp = _f(p.sprung_mass), _f(p.primary_mass)
-        Ks, Cs, Kp, Cp = _f(p.secondary_stiffness), _f(p.secondary_damping), _f(p.primary_stiffness), _f(p.primary_lin_damping)
+        Ms, Mp = shared_value(p.sprung_mass), shared_value(p.primary_mass)
+        Ks, Cs = shared_value(p.secondary_stiffness), shared_value(p.secondary_damping)
+        Kp, Cp = shared_value(p.primary_stiffness), shared_value(p.primary_lin_damping)
         self.M0 = np.array([[Ms, Ms], [0.0, Mp]])
         self.C0 = np.array([[Cs, 0.0], [-Cs, Cp]])
         self.K0 = np.array([[Ks, 0.0], [-Ks, Kp]])
         self.D0 = np.array([Ms, Mp])
         self.Pinv = np.linalg.inv(np.array([[1.0, 0.0], [-1.0, 1.0]]))
-        we = 2 * np.pi * _f(p.error_freq)
+        we = 2 * np.pi * shared_value(p.error_freq)
         O1 = we * we * np.eye(2)
-        O2 = 2 * _f(p.error_zeta) * we * np.eye(2)
+        O2 = 2 * shared_value(p.error_zeta) * we * np.eye(2)
         Kp0 = self.M0 @ O1 - self.K0
         Kv0 = self.M0 @ O2 - self.C0
         Om = np.block([[np.zeros((2, 2)), np.eye(2)], [-O1, -O2]])
@@ -192,11 +190,9 @@ class MDOFAdaptive(Controller):
         # normalise R so that Θ has the units of E scaled to ~1 at the error bandwidth
         self.R2, self.R3 = R[:2, 2:] * we * we, R[2:, 2:] * we * we
         self.O1, self.O2 = O1, O2
-        # gains: nominal (G0) + integral part (I) ; shapes (n, 2, k)
+        # gains: nominal (G0) + integral part (I, starting at 0), each (2, k)
         self.G0 = {"kp": Kp0, "kv": Kv0, "uax": np.zeros((2, 1)), "m0": self.M0, "c0": self.C0, "k0": self.K0,
                    "d0": self.D0[:, None]}
-        self.I = {k: np.zeros((n,) + v.shape) for k, v in self.G0.items()}
-        self.G = {k: np.tile(v[None], (n, 1, 1)) for k, v in self.G0.items()}
         # regressor scales (typical magnitudes: 1 cm, 0.1 m/s, 1 kN-equivalent, 1 m/s², 0.1 m/s, 1 cm, 1 m/s²)
         self.v_scale = {"kp": 0.01, "kv": 0.1, "uax": 1.0, "m0": 1.0, "c0": 0.1, "k0": 0.01, "d0": 1.0}
         # per-entry scale of each gain matrix: its nominal entry, at least 10 % of its largest entry
@@ -205,92 +201,37 @@ class MDOFAdaptive(Controller):
             a_ = np.abs(v)
             self.g_scale[k] = np.maximum(a_, 0.1 * a_.max()) if a_.max() > 0 else np.full(v.shape, 100.0)
         # reference: absolute states [x_ms, x_mp, ẋ_ms, ẋ_mp], input w
-        Dms, Dmp = _f(p.ref_skyhook_secondary), _f(p.ref_skyhook_primary)
+        Dms, Dmp = shared_value(p.ref_skyhook_secondary), shared_value(p.ref_skyhook_primary)
         Mi = np.diag([1 / Ms, 1 / Mp])
         Kr = np.array([[Ks, -Ks], [-Ks, Ks + Kp]])
         Cr = np.diag([Dms, Dmp])
         A = np.block([[np.zeros((2, 2)), np.eye(2)], [-Mi @ Kr, -Mi @ Cr]])
         B = np.concatenate([np.zeros(2), Mi @ np.array([0.0, Kp])])[:, None]
         self.Ar, self.Br = A, B
-        self.ref = FilterBank(A, B, np.eye(4), np.zeros((4, 1)), h, n, 1)
-        self.wd_prev = None
-        self._sig = {}
-
-    def step(self, t, y):
-        h = self.ctx.control_dt
-        Z = y["travel"]
-        Zd = y["travel_rate"]
-        w = y["road"][:, -1]
-        wd = y["road_vel"][:, -1]
-        wdd = np.zeros_like(wd) if self.wd_prev is None else (wd - self.wd_prev) / h
-        self.wd_prev = wd.copy()
-        xr = self.ref.output()[:, 0, :]
-        xacc = np.einsum("ij,nj->ni", self.Ar[2:], xr) + self.Br[2:, 0][None, :] * w[:, None]
-        Zm = np.stack([xr[:, 0] - xr[:, 1], xr[:, 1] - w], axis=1)
-        Zmd = np.stack([xr[:, 2] - xr[:, 3], xr[:, 3] - wd], axis=1)
-        Zmdd = np.stack([xacc[:, 0] - xacc[:, 1], xacc[:, 1] - wdd], axis=1)
-        E = Zm - Z
-        Ed = Zmd - Zd
-        Th = E @ self.R2.T + Ed @ self.R3.T  # (n, 2)
-        regs = {"kp": E, "kv": Ed, "uax": np.ones((E.shape[0], 1)), "m0": Zmdd, "c0": Zmd, "k0": Zm,
-                "d0": wdd[:, None]}
-        keys = list(regs) if self.p.adapt_model else ["kp", "kv", "uax"]
-        a, b = _f(self.p.alpha), _f(self.p.beta)
-        for k in keys:
-            v = regs[k] / self.v_scale[k]
-            nrm = 1.0 + np.einsum("nj,nj->n", v, v)  # normalised law: bounded for impulsive regressors (ẅ at a bump edge)
-            outer = np.einsum("ni,nj->nij", Th, v) * self.g_scale[k][None] / nrm[:, None, None]
-            self.I[k] += a * h * outer - _f(self.p.sigma) * h * self.I[k]
-            lim = _f(self.p.gain_limit) * self.g_scale[k][None]
-            self.I[k] = np.clip(self.I[k], -lim, lim)
-            self.G[k] = self.G0[k][None] + self.I[k] + np.clip(b * outer, -lim, lim)
-        G = self.G
-        tot = (G["uax"][:, :, 0] + np.einsum("nij,nj->ni", G["m0"], Zmdd) + np.einsum("nij,nj->ni", G["c0"], Zmd)
-               + np.einsum("nij,nj->ni", G["k0"], Zm) + G["d0"][:, :, 0] * wdd[:, None]
-               + np.einsum("nij,nj->ni", G["kp"], E) + np.einsum("nij,nj->ni", G["kv"], Ed))
-        U = tot @ self.Pinv.T
-        self.ref.update(w[:, None])
-        self._sig = {"ref_z": Zm, "err": E, "ref_acc": xacc[:, 0], "ref_x": xr[:, 0],
-                     "kp": G["kp"].reshape(E.shape[0], -1), "uax": G["uax"][:, :, 0]}
-        return U
-
-    def signals(self):
-        return self._sig
-
-    # ---- compiled kernel (see _kernel) ----
-    kernel = staticmethod(_kernel)
+        self.ref = ZOHFilter(A, B, np.eye(4), np.zeros((4, 1)), h)
 
     def kernel_data(self):
         n, p = self.ctx.n_cars, self.p
         lay = KernelLayout(n)
         off = [self.ctx.sensor_slice("travel")[0], self.ctx.sensor_slice("travel_rate")[0],
                self.ctx.sensor_slice("road")[1] - 1, self.ctx.sensor_slice("road_vel")[1] - 1]
-        lay.p([float(o) for o in off] + [self.ctx.control_dt, _f(p.alpha), _f(p.beta), _f(p.sigma),
-                                         float(bool(p.adapt_model))])
+        lay.p([float(o) for o in off] + [self.ctx.control_dt, shared_value(p.alpha), shared_value(p.beta),
+                                         shared_value(p.sigma), float(bool(p.adapt_model))])
         assert lay.p(self.R2) == _P_R2 and lay.p(self.R3) == _P_R3 and lay.p(self.Pinv) == _P_PI
         assert lay.p(self.Ar[2:]) == _P_AR and lay.p(self.Br[2:, 0]) == _P_BR
-        assert lay.p(np.zeros(FB_HEADER + 5 * len(_KEYS))) == _P_REF
-        sig = self._sig
-
-        def col(k, w):
-            return np.asarray(sig[k], dtype=float).reshape(n, w) if k in sig else np.zeros((n, w))
-
-        has = self.wd_prev is not None
-        wdp = np.asarray(self.wd_prev, dtype=float).reshape(n, 1) if has else np.zeros((n, 1))
-        lay.st(np.concatenate([col("ref_z", 2), col("err", 2), col("ref_acc", 1), col("ref_x", 1), wdp,
-                               np.full((n, 1), float(has))], axis=1), per_car=True)
-        assert lay.st(np.zeros(_ST_N - _ST_XR)) == _ST_XR
+        assert lay.p(np.zeros(ZOH_HEADER + 5 * len(_KEYS))) == _P_REF
+        assert lay.st(np.zeros(_ST_N)) == 0  # signals, ẇ_prev (not yet set), scratch
         reg = {"kp": _ST_E, "kv": _ST_ED, "uax": _ST_ONE, "m0": _ST_ZMDD, "c0": _ST_ZMD, "k0": _ST_ZM, "d0": _ST_WDD}
         table = []
         for k in _KEYS:
             g0 = np.asarray(self.G0[k], dtype=float)
-            lim = _f(p.gain_limit) * self.g_scale[k]
+            lim = shared_value(p.gain_limit) * self.g_scale[k]
             pb = lay.p(np.concatenate([[self.v_scale[k]], g0.ravel(), self.g_scale[k].ravel(), lim.ravel()]))
-            io = lay.st(self.I[k].reshape(n, -1), per_car=True)
-            go = lay.st(self.G[k].reshape(n, -1), per_car=True)
+            io = lay.st(np.zeros(g0.size))  # integral part I
+            go = lay.st(g0.ravel())  # gain G
             table += [g0.shape[1], pb, io, go, reg[k]]
-        lay.set_p(_P_REF + FB_HEADER, table)
-        self._kso = {"ref": self.ref.kernel_pack(lay, _P_REF)}
+        lay.set_p(_P_REF + ZOH_HEADER, table)
+        self.ref.pack(lay, _P_REF)
         self._kgo = {k: (int(table[5 * i + 2]), int(table[5 * i + 3])) for i, k in enumerate(_KEYS)}
         return lay.arrays()
 
@@ -300,16 +241,3 @@ class MDOFAdaptive(Controller):
         gkp, gua = self._kgo["kp"][1], self._kgo["uax"][1]
         return {"ref_z": (_ST_ZM, _ST_ZM + 2), "err": (_ST_E, _ST_E + 2), "ref_acc": (_ST_RA, _ST_RA + 1),
                 "ref_x": (_ST_RX, _ST_RX + 1), "kp": (gkp, gkp + 4), "uax": (gua, gua + 2)}
-
-    def kernel_sync(self, st):
-        st = np.asarray(st, dtype=float)
-        n = st.shape[0]
-        for k, (io, go) in self._kgo.items():
-            size = self.G0[k].size
-            self.I[k] = np.array(st[:, io:io + size]).reshape(self.I[k].shape)
-            self.G[k] = np.array(st[:, go:go + size]).reshape(self.G[k].shape)
-        self.ref.kernel_sync(st, self._kso["ref"])
-        if st[0, _ST_HAS] != 0.0:
-            self.wd_prev = np.array(st[:, _ST_WDP])
-        self._sig = {k: np.array(st[:, a]) if b == a + 1 else np.array(st[:, a:b]).reshape(n, -1)
-                     for k, (a, b) in self.kernel_signals().items()}

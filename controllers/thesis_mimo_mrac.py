@@ -41,9 +41,9 @@ Signals: ``ref_z``/``ref_pitch`` (target for the current reading), ``err.0/1``, 
 heave acceleration), ``theta.k`` (Θ unscaled, flattened), ``bias.0/1`` (the operating-point forces c
 mapped to actuator forces, N).
 
-Compiled kernel (``_kernel`` with thesis_common.dm_step, :mod:`suspension_sim.compiled`): ``step`` for one
-car, bit-identical to it (including np.einsum's summation order for Θᵀφ, which depends on Θ's memory
-layout: a lone car's differs from an ensemble's); tests/test_kernels_thesis.py.
+The law is the numba kernel ``_kernel`` for one car (with thesis_common.dm_step; the base Controller
+broadcasts it over an ensemble, the compiled loop inlines it); tests/test_kernels_thesis.py checks it
+against the equations above.
 """
 from __future__ import annotations
 
@@ -55,8 +55,9 @@ from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
-from .thesis_common import (DM_HEADER, FB_HEADER, DiscreteMRAC, FilterBank, KernelLayout, _f, am_poly, darma, dm_step,
-                            dm_theta_strides, fb_update, fb_y, k_dot, predictor, stamped_cache, theta_from_predictor)
+from .thesis_common import (DM_HEADER, ZOH_HEADER, DiscreteMRAC, KernelLayout, ZOHFilter, am_poly, darma, dm_step,
+                            dm_theta_strides, k_dot, predictor, shared_value, stamped_cache, theta_from_predictor,
+                            zoh_update, zoh_y)
 
 
 class MIMOParams(Params):
@@ -84,14 +85,14 @@ class MIMOParams(Params):
     road_feedforward: bool = Field(True, description="U_T = u + K0·w + C0·ẇ (see module doc)")
 
 
-# ---- compiled kernel (suspension_sim.compiled): MIMOMRAC.step for one car ----------------------------------
+# ---- the law: one control step for one car (suspension_sim.compiled) ---------------------------------------
 # p: the reference filter's header, the DiscreteMRAC header, the scalars _PS.. (sensor offsets of body_pos,
 # road, road_vel; D; n targets; st offset of the targets; a_m (3); K0, C0, feed-forward on), row 4 of the
 # reference A (8) and B (4) matrices, then matrices.  st: the signals ref_z, ref_pitch, ref_acc, err (2),
 # bias (2), the scratch [w, ẇ] (4), Y (2), Ȳ* (2), r (8), the signal Θ (unscaled, p·2), the targets
 # (n targets × 2), then the estimator's and filter's states.
-_HREF, _HDM = 0, FB_HEADER
-_PS = FB_HEADER + DM_HEADER
+_HREF, _HDM = 0, ZOH_HEADER
+_PS = ZOH_HEADER + DM_HEADER
 _PA4, _PB4 = _PS + 12, _PS + 20
 _ST_RZ, _ST_RP, _ST_RA, _ST_E, _ST_BIAS, _ST_WIN, _ST_Y, _ST_YB, _ST_R, _ST_TH = 0, 1, 2, 3, 5, 7, 11, 13, 15, 23
 
@@ -110,13 +111,13 @@ def _kernel(t, y, p, st, u):
         st[_ST_WIN + c] = y[iw + c]
         st[_ST_WIN + 2 + c] = y[iwd + c]
     for o in range(8):
-        st[_ST_R + o] = fb_y(p, st, _HREF, 0, o)
-    fb_update(p, st, _HREF, 0, st, _ST_WIN)
+        st[_ST_R + o] = zoh_y(p, st, _HREF, 0, o)
+    zoh_update(p, st, _HREF, 0, st, _ST_WIN)
     for k in range(nt - 1, 0, -1):
         for c in range(2):
             st[TG + 2 * k + c] = st[TG + 2 * (k - 1) + c]
     for c in range(2):
-        st[TG + c] = fb_y(p, st, _HREF, 0, c)
+        st[TG + c] = zoh_y(p, st, _HREF, 0, c)
     for c in range(2):
         st[_ST_YB + c] = p[_PS + 6] * st[TG + c] + p[_PS + 7] * st[TG + 2 + c] + p[_PS + 8] * st[TG + 4 + c]
     dm_step(p, st, _HDM, st, _ST_Y, st, _ST_YB, True)
@@ -148,15 +149,17 @@ class MIMOMRAC(Controller):
 
     Params = MIMOParams
     requires = ("body_pos", "road", "road_vel")
+    kernel = staticmethod(_kernel)
 
     def reset(self):
-        p, n, h = self.p, self.ctx.n_cars, self.ctx.control_dt
+        super().reset()
+        p, h = self.p, self.ctx.control_dt
         if self.ctx.n_corners != 2 or self.ctx.vehicle_model != "half_car":
             from suspension_sim.errors import ScenarioError
 
             raise ScenarioError("thesis_mimo_mrac needs the half_car model", field="controller.type")
-        M, I, a, b = _f(p.sprung_mass), _f(p.pitch_inertia), _f(p.a), _f(p.b)
-        K, C = _f(p.stiffness), _f(p.lin_damping)
+        M, I, a, b = shared_value(p.sprung_mass), shared_value(p.pitch_inertia), shared_value(p.a), shared_value(p.b)
+        K, C = shared_value(p.stiffness), shared_value(p.lin_damping)
         T = np.array([[1.0, -a], [1.0, b]])
         Mg = np.diag([M, I])
         Mi = np.linalg.inv(Mg)
@@ -164,17 +167,19 @@ class MIMOMRAC(Controller):
         Bc = np.vstack([np.zeros((2, 2)), Mi @ T.T])
         Cc = np.hstack([np.eye(2), np.zeros((2, 2))])
         A, B = darma(Ac, Bc, Cc, h)
-        self.am = am_poly(2 * np.pi * _f(p.ref_freq), _f(p.ref_zeta), h)
-        D, alpha, beta = predictor(A, B, self.am, int(_f(p.delay_steps)))
+        self.am = am_poly(2 * np.pi * shared_value(p.ref_freq), shared_value(p.ref_zeta), h)
+        D, alpha, beta = predictor(A, B, self.am, int(shared_value(p.delay_steps)))
         self.D = D
         th0 = theta_from_predictor(alpha, beta)
-        self.core = DiscreteMRAC(th0, 2, D, self.am, n, _f(p.p0), _f(p.q), _f(p.trace_max),
+        self.core = DiscreteMRAC(th0, 2, D, self.am, shared_value(p.p0), shared_value(p.q), shared_value(p.trace_max),
                                  beta_inv_range=tuple(np.asarray(p.beta_inv_range, dtype=float).reshape(-1)[:2]),
-                                 kappa=_f(p.kappa), p0_bias=_f(p.p0_bias), q_bias=_f(p.q_bias))
+                                 kappa=shared_value(p.kappa), p0_bias=shared_value(p.p0_bias),
+                                 q_bias=shared_value(p.q_bias))
         self.K0, self.C0 = K, C
         # reference: two-tier skyhook half car; q_r = [x_b, θ, x_wf, x_wr], input [w_f, w_r]
-        mu = _f(p.unsprung_mass)
-        Km, Cm, Dm, kt = _f(p.ref_stiffness), _f(p.ref_skyhook), _f(p.ref_wheel_damping), _f(p.tire_stiffness)
+        mu = shared_value(p.unsprung_mass)
+        Km, Cm = shared_value(p.ref_stiffness), shared_value(p.ref_skyhook)
+        Dm, kt = shared_value(p.ref_wheel_damping), shared_value(p.tire_stiffness)
         Mr = np.diag([M, I, mu, mu])
         # corner heights of the body: T q; travel_i = (T q)_i − x_wi
         S = np.array([[1.0, -a, -1.0, 0.0], [1.0, b, 0.0, -1.0]])  # travels
@@ -190,77 +195,25 @@ class MIMOMRAC(Controller):
         Bw[2, 2] = Bw[3, 3] = Dm
         Br = np.vstack([np.zeros((4, 4)), Mri @ Bw])
         self.Ar, self.Br = Ar, Br
-        self.ref = FilterBank(Ar, Br, np.eye(8), np.zeros((8, 4)), h, n, 1)
-        self.targets = np.zeros((n, max(D + 1, 3), 2))
-        self._sig = {}
-
-    def step(self, t, y):
-        yb = y["body_pos"][:, :2]
-        w = y["road"]
-        wd = y["road_vel"]
-        win = np.concatenate([w, wd], axis=1)
-        r = self.ref.output()[:, 0, :]
-        self.ref.update(win[:, None, :])
-        rn = self.ref.output()[:, 0, :]
-        self.targets = np.roll(self.targets, 1, axis=1)
-        self.targets[:, 0] = rn[:, :2]
-        am = self.am
-        ybar = am[0] * self.targets[:, 0] + am[1] * self.targets[:, 1] + am[2] * self.targets[:, 2]
-        UT = self.core.step(yb, ybar)
-        ff = self.K0 * w + self.C0 * wd if self.p.road_feedforward else 0.0
-        u = UT - ff
-        tgt = self.targets[:, self.D]
-        acc = np.einsum("ij,nj->ni", self.Ar[4:], r) + np.einsum("ij,nj->ni", self.Br[4:], win)
-        th = self.core.theta_unscaled
-        # bias row (−1 regressor): U contribution −θ_bias
-        bias = -th[:, self.core.p - 3, :]
-        self._sig = {"ref_z": r[:, 0], "ref_pitch": r[:, 1], "ref_acc": acc[:, 0], "err": yb - tgt,
-                     "bias": bias, "theta": th.reshape(th.shape[0], -1)}
-        return u
-
-    def signals(self):
-        return self._sig
-
-    # ---- compiled kernel (see _kernel) ----
-    kernel = staticmethod(_kernel)
+        self.ref = ZOHFilter(Ar, Br, np.eye(8), np.zeros((8, 4)), h)
+        self.n_targets = max(D + 1, 3)  # Y*[k+D], …, Y*[k] (2 each)
 
     def kernel_data(self):
         n, p, core = self.ctx.n_cars, self.p, self.core
         lay = KernelLayout(n)
-        lay.p(np.zeros(_PS))  # headers, filled by kernel_pack
-        npar = core.p
-        nt = self.targets.shape[1]
+        lay.p(np.zeros(_PS))  # headers, filled by pack
         sl = [float(self.ctx.sensor_slice(nm)[0]) for nm in ("body_pos", "road", "road_vel")]
-        lay.p(sl + [self.D, nt, _ST_TH + 2 * npar, *[float(a) for a in self.am[:3]], self.K0, self.C0,
-                    float(bool(p.road_feedforward))])
+        lay.p(sl + [self.D, self.n_targets, _ST_TH + 2 * core.npar, *[float(a) for a in self.am[:3]], self.K0,
+                    self.C0, float(bool(p.road_feedforward))])
         assert lay.p(self.Ar[4]) == _PA4 and lay.p(self.Br[4]) == _PB4
-        sig = self._sig
-
-        def col(k, w):
-            if k not in sig:
-                return np.zeros((n, w))
-            return np.asarray(sig[k], dtype=float).reshape(n, w)
-
-        lay.st(np.concatenate([col("ref_z", 1), col("ref_pitch", 1), col("ref_acc", 1), col("err", 2),
-                               col("bias", 2)], axis=1), per_car=True)
-        assert lay.st(np.zeros(_ST_TH - _ST_WIN)) == _ST_WIN
-        assert lay.st(core.theta_unscaled.reshape(n, -1), per_car=True) == _ST_TH
-        lay.st(self.targets.reshape(n, -1), per_car=True)
-        core.kernel_pack(lay, _HDM)
-        self._kso = self.ref.kernel_pack(lay, _HREF)
+        assert lay.st(np.zeros(_ST_TH)) == _ST_RZ  # signals, scratch
+        assert lay.st(core.theta0_unscaled().ravel()) == _ST_TH
+        lay.st(np.zeros(2 * self.n_targets))
+        core.pack(lay, _HDM, n)
+        self.ref.pack(lay, _HREF)
         return lay.arrays()
 
     def kernel_signals(self):
-        npar = self.core.p
+        npar = self.core.npar
         return {"ref_z": (_ST_RZ, _ST_RZ + 1), "ref_pitch": (_ST_RP, _ST_RP + 1), "ref_acc": (_ST_RA, _ST_RA + 1),
                 "err": (_ST_E, _ST_E + 2), "bias": (_ST_BIAS, _ST_BIAS + 2), "theta": (_ST_TH, _ST_TH + 2 * npar)}
-
-    def kernel_sync(self, st):
-        st = np.asarray(st, dtype=float)
-        n, npar, nt = st.shape[0], self.core.p, self.targets.shape[1]
-        self.core.kernel_sync(st)
-        self.ref.kernel_sync(st, self._kso)
-        a = _ST_TH + 2 * npar
-        self.targets = np.array(st[:, a:a + 2 * nt]).reshape(n, nt, 2)
-        self._sig = {k: np.array(st[:, a]) if b == a + 1 else np.array(st[:, a:b])
-                     for k, (a, b) in self.kernel_signals().items()}

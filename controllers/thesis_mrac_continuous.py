@@ -40,10 +40,10 @@ Sensors: ``body_pos`` (x from the static equilibrium), ``body_vel`` (ẋ, for th
 (w) and ``road_vel`` (ẇ) — the base of the rig.  Signals: ``theta.k``, ``b0``, ``ref_x``, ``ref_acc``,
 ``ref_travel``, ``err``.
 
-Compiled kernel (``_kernel``, :mod:`suspension_sim.compiled`): ``step`` for one car, bit-identical to it (the
-filter banks and dot products in np.einsum's summation order, see thesis_common), written out for this
-controller's fixed filter orders (≈ 0.06 µs per call against ≈ 1.1 µs with the generic filter helpers:
-benchmarks/bench_mrac_kernel.py); tests/test_kernels_thesis.py.
+The law is the numba kernel ``_kernel`` for one car (the base Controller broadcasts it over an ensemble for
+the Python loop; the compiled loop inlines it), written out for this controller's fixed filter orders
+(≈ 0.06 µs per call against ≈ 1.1 µs with the generic filter helpers of thesis_common:
+benchmarks/bench_mrac_kernel.py); tests/test_kernels_thesis.py checks it against the equations above.
 """
 from __future__ import annotations
 
@@ -57,7 +57,7 @@ from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
-from .thesis_common import FB_HEADER, FilterBank, KernelLayout, _f, stamped_cache
+from .thesis_common import ZOH_HEADER, KernelLayout, ZOHFilter, shared_value, stamped_cache
 
 
 class MRACContinuousParams(Params):
@@ -81,14 +81,14 @@ class MRACContinuousParams(Params):
     fully_active: bool = Field(False, description="C = K = 0 in Eq. 3.6 (fully active suspension)")
 
 
-# ---- compiled kernel (suspension_sim.compiled): MRACContinuous.step for one car ----------------------------
-# p: the filters' headers (FB_HEADER values each, in _FILTERS order), then the scalars _PS.., Γ (5), then the
+# ---- the law: one control step for one car (suspension_sim.compiled) ---------------------------------------
+# p: the filters' headers (ZOH_HEADER values each, in _FILTERS order), then the scalars _PS.., Γ (5), then the
 # filter matrices.  st: Θ (6), b0, F, the signals ref_x, ref_acc, ref_travel, err, the scratch φ (6), P1φ (6)
 # and the filter inputs (F, x, w, 1) (unused by the specialised kernel), then the filter states (and their
 # unused scratch).
 _FILTERS = ("fEf", "fP", "fsP", "fP2", "fsP2", "fP1", "ref")
-_HEF, _HP, _HSP, _HP2, _HSP2, _HP1, _HREF = (FB_HEADER * i for i in range(len(_FILTERS)))
-_PS = FB_HEADER * len(_FILTERS)  # scalars: sensor offsets x, ẋ, w, ẇ; h, K_v, α, γ_d, static, γ_b0, b-range, Kc, Cc, 2ζω, ω²
+_HEF, _HP, _HSP, _HP2, _HSP2, _HP1, _HREF = (ZOH_HEADER * i for i in range(len(_FILTERS)))
+_PS = ZOH_HEADER * len(_FILTERS)  # scalars: sensor offsets x, ẋ, w, ẇ; h, K_v, α, γ_d, static, γ_b0, b-range, Kc, Cc, 2ζω, ω²
 _PG = _PS + 16  # Γ (5)
 _ST_TH, _ST_B0, _ST_F, _ST_RX, _ST_RA, _ST_RT, _ST_E = 0, 6, 7, 8, 9, 10, 11
 _ST_PHI, _ST_P1PHI, _ST_U = 12, 18, 24
@@ -97,10 +97,10 @@ _ST_N = 28
 # The kernel is written out for this controller's fixed filter orders (P = P1·P2 of degree 3, P1 and the
 # reference of degree 2, P2 of degree 1), with every matrix and state at a fixed offset: no header decoding,
 # no runtime-sized loops, all values in locals (a store to st cannot force p to be read again).  The generic
-# helpers of thesis_common (fb_y/fb_yu/fb_update/k_dot) cost ≈ 1 µs per call for the same few hundred flops
-# (benchmarks/bench_mrac_kernel.py).  The sums keep k_dot's order (np.einsum's: even terms, odd terms, then
-# their sum, each from 0.0), so the kernel stays bit-identical to step.
-# (n states, n inputs, n outputs, n copies) of each filter; kernel_data checks them against the FilterBanks.
+# helpers of thesis_common (zoh_y/zoh_yu/zoh_update/k_dot) cost ≈ 1 µs per call for the same few hundred flops
+# (benchmarks/bench_mrac_kernel.py).  The sums keep k_dot's order (even terms, odd terms, then their sum,
+# each from 0.0; see thesis_common).
+# (n states, n inputs, n outputs, n copies) of each filter; kernel_data checks them against the ZOHFilters.
 _SIZES = {"fEf": (3, 1, 1, 1), "fP": (3, 1, 1, 4), "fsP": (3, 1, 1, 2), "fP2": (1, 1, 1, 4),
           "fsP2": (1, 1, 1, 2), "fP1": (2, 1, 1, 1), "ref": (2, 1, 2, 1)}
 
@@ -158,7 +158,7 @@ def _y3(p, m, st, s):
 
 @numba.njit(inline="always")
 def _up3(p, m, x0, x1, x2, v):
-    """The next state Ad x + Bd v of a 3-state, 1-input filter (fb_update's sums)."""
+    """The next state Ad x + Bd v of a 3-state, 1-input filter (zoh_update's sums)."""
     return (_d3(p[m], p[m + 1], p[m + 2], x0, x1, x2) + _d1(p[m + 9], v),
             _d3(p[m + 3], p[m + 4], p[m + 5], x0, x1, x2) + _d1(p[m + 10], v),
             _d3(p[m + 6], p[m + 7], p[m + 8], x0, x1, x2) + _d1(p[m + 11], v))
@@ -199,7 +199,7 @@ def _kernel(t, y, p, st, u):
     g0, g1 = st[_SP1], st[_SP1 + 1]  # 1/P1: F
     m0, m1 = st[_SREF], st[_SREF + 1]  # reference: x_m, ẋ_m
     n0, n1, n2 = st[_SEF], st[_SEF + 1], st[_SEF + 2]  # Q/P: e
-    # regressor φ and P1·φ (as step: filter outputs before this step's update)
+    # regressor φ and P1·φ (filter outputs before this step's update)
     ph0 = _y3(p, _MP, st, _SP)
     ph1 = _y3(p, _MSP, st, _SSP)
     ph2 = _y3(p, _MP, st, _SP + 3)
@@ -232,7 +232,7 @@ def _kernel(t, y, p, st, u):
         st[_ST_TH + 5]
     eta = -(FP1 + _d6(ph0, ph1, ph2, ph3, ph4, ph5, th0, th1, th2, th3, th4, th5))
     eps = ef + b0 * eta + k_v * ed
-    # adaptation (Σ φ_k Γ_k φ_k as np.einsum("nk,k,nk->n") sums it: in order from 0.0)
+    # adaptation (normalised gradient, Euler over the control step; Σ φ_k Γ_k φ_k in order from 0.0)
     G0, G1, G2, G3, G4 = p[_PG], p[_PG + 1], p[_PG + 2], p[_PG + 3], p[_PG + 4]
     den = alpha + (((((0.0 + ph0 * G0 * ph0) + ph1 * G1 * ph1) + ph2 * G2 * ph2) + ph3 * G3 * ph3)
                    + ph4 * G4 * ph4)
@@ -297,12 +297,14 @@ class MRACContinuous(Controller):
 
     Params = MRACContinuousParams
     requires = ("body_pos", "body_vel", "road", "road_vel")
+    kernel = staticmethod(_kernel)
 
     def reset(self):
-        p, n, h = self.p, self.ctx.n_cars, self.ctx.control_dt
-        M, C, K = _f(p.mass), _f(p.damping), _f(p.stiffness)
-        Mm, Km, Dm = _f(p.ref_mass), _f(p.ref_stiffness), _f(p.ref_damping)
-        a0 = _f(p.a0)
+        super().reset()
+        p, h = self.p, self.ctx.control_dt
+        M, C, K = shared_value(p.mass), shared_value(p.damping), shared_value(p.stiffness)
+        Mm, Km, Dm = shared_value(p.ref_mass), shared_value(p.ref_stiffness), shared_value(p.ref_damping)
+        a0 = shared_value(p.a0)
         wm2, zw2 = Km / Mm, Dm / Mm  # ω_m², 2ζ_mω_m
         wp2, zp2 = K / M, C / M
         b0 = 1.0 / M
@@ -311,130 +313,50 @@ class MRACContinuous(Controller):
         s1 = (a0 * wm2 - r1 * wp2) / b0
         t0, t1 = wm2 / b0, a0 * wm2 / b0
         self.theta_nom = np.array([r1 - a0, s0, s1, t0, t1, 0.0])
-        th0 = np.asarray(p.theta0, dtype=float) if p.theta0 is not None else self.theta_nom
-        self.theta = np.tile(th0, (n, 1))
+        self.theta0 = np.asarray(p.theta0, dtype=float) if p.theta0 is not None else self.theta_nom
         # per-parameter gain: scaled by the nominal magnitudes (conditioning of the normalised law)
         scale = np.abs(self.theta_nom).copy()
         scale[5] = 1000.0 * max(abs(r1), 1.0)  # θ_d ≈ r1·d with d of the order of kN
-        self.Gamma = _f(p.gamma) * scale[:5] ** 2
-        self.b0 = np.full(n, b0)
+        self.Gamma = shared_value(p.gamma) * scale[:5] ** 2
+        self.b0 = b0
         self.b_lim = (0.2 * b0, 5.0 * b0)
         Am = [1.0, zw2, wm2]
         P2 = [1.0, a0]
-        P1 = Am if p.p1 is None else [1.0, 2 * _f(p.p1), _f(p.p1) ** 2]
+        P1 = Am if p.p1 is None else [1.0, 2 * shared_value(p.p1), shared_value(p.p1) ** 2]
         Pp = np.polymul(P1, P2)
-        self.fEf = FilterBank.tf(np.polymul(P2, Am), Pp, h, n, 1)  # e_f = (Q/P) e, Q = A0·A_m
-        # 1/P on (F, x, w, 1) and s/P on (x, w); 1/P2 and s/P2 for P1·φ; F/P1; reference model
-        self.fP = FilterBank.tf([1.0], Pp, h, n, 4)
-        self.fsP = FilterBank.tf([1.0, 0.0], Pp, h, n, 2)
-        self.fP2 = FilterBank.tf([1.0], P2, h, n, 4)
-        self.fsP2 = FilterBank.tf([1.0, 0.0], P2, h, n, 2)
-        self.fP1 = FilterBank.tf([1.0], P1, h, n, 1)
-        # reference: states [x_m, ẋ_m], input w
-        Ar = np.array([[0.0, 1.0], [-wm2, -zw2]])
-        self.ref = FilterBank(Ar, np.array([[0.0], [wm2]]), np.eye(2), np.zeros((2, 1)), h, n, 1)
+        # e_f = (Q/P) e with Q = A0·A_m; 1/P on (F, x, w, 1) and s/P on (x, w); 1/P2 on (F, x, w, 1) and s/P2
+        # on (x, w) for P1·φ; F/P1; the reference model (states [x_m, ẋ_m], input w)
+        self.filters = {"fEf": ZOHFilter.tf(np.polymul(P2, Am), Pp, h), "fP": ZOHFilter.tf([1.0], Pp, h, 4),
+                        "fsP": ZOHFilter.tf([1.0, 0.0], Pp, h, 2), "fP2": ZOHFilter.tf([1.0], P2, h, 4),
+                        "fsP2": ZOHFilter.tf([1.0, 0.0], P2, h, 2), "fP1": ZOHFilter.tf([1.0], P1, h),
+                        "ref": ZOHFilter(np.array([[0.0, 1.0], [-wm2, -zw2]]), np.array([[0.0], [wm2]]), np.eye(2),
+                                         np.zeros((2, 1)), h)}
         self.wm2, self.zw2 = wm2, zw2
-        self.F = np.zeros(n)
         self.Kc, self.Cc = (0.0, 0.0) if p.fully_active else (K, C)
-        self._sig = {}
-
-    def step(self, t, y):
-        h = self.ctx.control_dt
-        x = y["body_pos"][:, 0]
-        xd = y["body_vel"][:, 0]
-        w = y["road"][:, 0]
-        wd = y["road_vel"][:, 0]
-        n = x.shape[0]
-        one = np.ones(n)
-        # regressor φ (filter states hold inputs up to the previous step; x, w enter with feed-through)
-        oP = self.fP.output()[:, :, 0]  # F/P, x/P, w/P, 1/P
-        osP = self.fsP.output()[:, :, 0]  # s x/P, s w/P
-        phi = np.stack([oP[:, 0], osP[:, 0], oP[:, 1], -osP[:, 1], -oP[:, 2], oP[:, 3]], axis=1)
-        sig2 = np.stack([x, w], axis=1)[:, :, None]
-        oP2 = self.fP2.output()[:, :, 0]  # F/P2, x/P2, w/P2, 1/P2
-        osP2 = self.fsP2.output(sig2)[:, :, 0]  # s x/P2, s w/P2 (biproper)
-        # x/P2, w/P2 are strictly proper: their state lags the current sample by one step (ZOH)
-        P1phi = np.stack([oP2[:, 0], osP2[:, 0], oP2[:, 1], -osP2[:, 1], -oP2[:, 2], oP2[:, 3]], axis=1)
-        # reference model and errors
-        xr = self.ref.output()[:, 0, :]
-        e = x - xr[:, 0]
-        ef = self.fEf.output(e[:, None])[:, 0, 0]
-        ed = xd - xr[:, 1]
-        FP1 = self.fP1.output()[:, 0, 0]
-        k = 5
-        th = self.theta
-        eta = -(FP1 + np.einsum("nk,nk->n", phi, th))
-        eps = ef + self.b0 * eta + _f(self.p.k_v) * ed
-        # adaptation (normalised gradient, Euler over the control step)
-        G = self.Gamma
-        den = _f(self.p.alpha) + np.einsum("nk,k,nk->n", phi[:, :k], G, phi[:, :k])
-        self.theta[:, :k] += h * G[None, :] * phi[:, :k] * (eps / den)[:, None]
-        if self.p.static_level:  # θ_d: its own normalised law (see module doc)
-            pd = phi[:, 5]
-            self.theta[:, 5] += h * _f(self.p.gamma_d) * pd * eps / (_f(self.p.alpha) + pd * pd)
-        if _f(self.p.gamma_b0) > 0:
-            epsh = ef + self.b0 * eta
-            self.b0 = np.clip(self.b0 - h * _f(self.p.gamma_b0) * eta * epsh / (1e-12 + eta * eta),
-                              *self.b_lim)
-        # control (Eq. 3.29) and actuator force (Eq. 3.6 with M*g = K*δ_st)
-        F = -np.einsum("nk,nk->n", self.theta, P1phi)
-        Fact = F - self.Cc * wd - self.Kc * w
-        # advance filters with this step's inputs
-        self.fP.update(np.stack([F, x, w, one], axis=1))
-        self.fsP.update(np.stack([x, w], axis=1))
-        self.fP2.update(np.stack([F, x, w, one], axis=1))
-        self.fsP2.update(np.stack([x, w], axis=1))
-        self.fP1.update(F[:, None])
-        self.ref.update(w[:, None])
-        self.fEf.update(e[:, None])
-        self.F = F
-        acc_r = -self.zw2 * xr[:, 1] - self.wm2 * (xr[:, 0] - w)
-        self._sig = {"theta": self.theta.copy(), "b0": self.b0.copy(), "ref_x": xr[:, 0],
-                     "ref_acc": acc_r, "ref_travel": xr[:, 0] - w, "err": e}
-        return Fact[:, None]
-
-    def signals(self):
-        return self._sig
-
-    # ---- compiled kernel (see _kernel) ----
-    kernel = staticmethod(_kernel)
 
     def kernel_data(self):
         n = self.ctx.n_cars
         lay = KernelLayout(n)
-        lay.p(np.zeros(_PS))  # filter headers, filled by kernel_pack
+        lay.p(np.zeros(_PS))  # filter headers, filled by ZOHFilter.pack
         sl = [float(self.ctx.sensor_slice(nm)[0]) for nm in ("body_pos", "body_vel", "road", "road_vel")]
         p = self.p
-        lay.p(sl + [self.ctx.control_dt, _f(p.k_v), _f(p.alpha), _f(p.gamma_d), float(bool(p.static_level)),
-                    _f(p.gamma_b0), self.b_lim[0], self.b_lim[1], self.Kc, self.Cc, self.zw2, self.wm2])
+        lay.p(sl + [self.ctx.control_dt, shared_value(p.k_v), shared_value(p.alpha), shared_value(p.gamma_d),
+                    float(bool(p.static_level)), shared_value(p.gamma_b0), self.b_lim[0], self.b_lim[1], self.Kc,
+                    self.Cc, self.zw2, self.wm2])
         assert lay.p(self.Gamma) == _PG
-        assert lay.st(self.theta, per_car=True) == _ST_TH
-        lay.st(self.b0[:, None], per_car=True)
-        lay.st(np.broadcast_to(np.asarray(self.F, dtype=float), (n,))[:, None], per_car=True)
-        sig = self._sig
-        lay.st(np.stack([np.broadcast_to(np.asarray(sig.get(k, 0.0), dtype=float), (n,))
-                         for k in ("ref_x", "ref_acc", "ref_travel", "err")], axis=1), per_car=True)
+        assert lay.st(self.theta0) == _ST_TH
+        lay.st([self.b0, 0.0, 0.0, 0.0, 0.0, 0.0])  # b0, F, ref_x, ref_acc, ref_travel, err
         assert lay.st(np.zeros(_ST_N - _ST_PHI)) == _ST_PHI
-        self._kso = {nm: getattr(self, nm).kernel_pack(lay, FB_HEADER * i) for i, nm in enumerate(_FILTERS)}
+        for i, nm in enumerate(_FILTERS):
+            self.filters[nm].pack(lay, ZOH_HEADER * i)
         p, st = lay.arrays()
         for i, nm in enumerate(_FILTERS):  # the specialised kernel reads the filters at fixed offsets
             ns, nin, nout, k = _SIZES[nm]
-            po, ns_, nin_, nout_, so = p[0, FB_HEADER * i:FB_HEADER * i + 5]
-            if (po, so, ns_, nin_, nout_, getattr(self, nm).x.shape[1]) != (*_LAY[nm], ns, nin, nout, k):
+            po, ns_, nin_, nout_, so = p[0, ZOH_HEADER * i:ZOH_HEADER * i + 5]
+            if (po, so, ns_, nin_, nout_, self.filters[nm].copies) != (*_LAY[nm], ns, nin, nout, k):
                 raise AssertionError(f"thesis_mrac_continuous kernel: filter {nm} not in the fixed layout")
         return p, st
 
     def kernel_signals(self):
         return {"theta": (_ST_TH, _ST_TH + 6), "b0": (_ST_B0, _ST_B0 + 1), "ref_x": (_ST_RX, _ST_RX + 1),
                 "ref_acc": (_ST_RA, _ST_RA + 1), "ref_travel": (_ST_RT, _ST_RT + 1), "err": (_ST_E, _ST_E + 1)}
-
-    def kernel_sync(self, st):
-        st = np.asarray(st, dtype=float)
-        self.theta = np.array(st[:, _ST_TH:_ST_TH + 6])
-        self.b0 = np.array(st[:, _ST_B0])
-        self.F = np.array(st[:, _ST_F])
-        for nm, so in self._kso.items():
-            getattr(self, nm).kernel_sync(st, so)
-        self._sig = {"theta": self.theta.copy(), "b0": self.b0.copy()}
-        self._sig.update({k: np.array(st[:, a]) for k, (a, _) in self.kernel_signals().items()
-                          if k not in ("theta", "b0")})

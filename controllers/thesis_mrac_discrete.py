@@ -34,8 +34,9 @@ Sensors: ``body_pos`` (x), ``road`` (w) and ``road_vel`` (ẇ), all with the loo
 ``theta.k`` (unscaled Θ), ``ref_x`` (the target for the current reading), ``ref_acc``, ``ref_travel``,
 ``err`` (reading − target), ``pred_err`` (RLS prediction error, N).
 
-Compiled kernel (``_kernel`` with thesis_common.dm_step, :mod:`suspension_sim.compiled`): ``step`` for one
-car, bit-identical to it; tests/test_kernels_thesis.py.
+The law is the numba kernel ``_kernel`` for one car (with thesis_common.dm_step; the base Controller
+broadcasts it over an ensemble, the compiled loop inlines it); tests/test_kernels_thesis.py checks it
+against the equations above.
 """
 from __future__ import annotations
 
@@ -47,8 +48,8 @@ from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
-from .thesis_common import (DM_HEADER, FB_HEADER, DiscreteMRAC, FilterBank, KernelLayout, _f, am_poly, darma, dm_step,
-                            fb_update, fb_y, predictor, stamped_cache, theta_from_predictor)
+from .thesis_common import (DM_HEADER, ZOH_HEADER, DiscreteMRAC, KernelLayout, ZOHFilter, am_poly, darma, dm_step,
+                            predictor, shared_value, stamped_cache, theta_from_predictor, zoh_update, zoh_y)
 
 
 class MRACDiscreteParams(Params):
@@ -69,13 +70,13 @@ class MRACDiscreteParams(Params):
     road_feedforward: bool = Field(True, description="U_T = u + K*·w + C0·ẇ (see module doc)")
 
 
-# ---- compiled kernel (suspension_sim.compiled): MRACDiscrete.step for one car ------------------------------
+# ---- the law: one control step for one car (suspension_sim.compiled) ---------------------------------------
 # p: the reference filter's header, the DiscreteMRAC header, the scalars _PS.. (sensor offsets x, w, ẇ; D;
 # n targets; st offset of the targets; a_m (3); K*, C0, feed-forward on; u_max; K_m, M_m, C_m), then
 # matrices.  st: the signals ref_x, ref_acc, ref_travel, err, pred_err, the scratch (x, Ȳ*, w), the
 # signal Θ (unscaled, p values), then the targets Y*[k+D] … and the estimator's and filter's states.
-_HREF, _HDM = 0, FB_HEADER
-_PS = FB_HEADER + DM_HEADER
+_HREF, _HDM = 0, ZOH_HEADER
+_PS = ZOH_HEADER + DM_HEADER
 _ST_RX, _ST_RA, _ST_RT, _ST_E, _ST_PE, _ST_X, _ST_YB, _ST_W, _ST_TH = range(9)
 
 
@@ -88,13 +89,13 @@ def _kernel(t, y, p, st, u):
     D = int(p[_PS + 3])
     nt = int(p[_PS + 4])
     TG = int(p[_PS + 5])
-    r0 = fb_y(p, st, _HREF, 0, 0)
-    r1 = fb_y(p, st, _HREF, 0, 1)
+    r0 = zoh_y(p, st, _HREF, 0, 0)
+    r1 = zoh_y(p, st, _HREF, 0, 1)
     st[_ST_W] = w
-    fb_update(p, st, _HREF, 0, st, _ST_W)
+    zoh_update(p, st, _HREF, 0, st, _ST_W)
     for k in range(nt - 1, 0, -1):
         st[TG + k] = st[TG + k - 1]
-    st[TG] = fb_y(p, st, _HREF, 0, 0)
+    st[TG] = zoh_y(p, st, _HREF, 0, 0)
     st[_ST_YB] = p[_PS + 6] * st[TG] + p[_PS + 7] * st[TG + 1] + p[_PS + 8] * st[TG + 2]
     st[_ST_X] = x
     dm_step(p, st, _HDM, st, _ST_X, st, _ST_YB, True)
@@ -129,88 +130,43 @@ class MRACDiscrete(Controller):
 
     Params = MRACDiscreteParams
     requires = ("body_pos", "road", "road_vel")
+    kernel = staticmethod(_kernel)
 
     def reset(self):
-        p, n, h = self.p, self.ctx.n_cars, self.ctx.control_dt
-        M, K, C = _f(p.mass), _f(p.stiffness), _f(p.lin_damping)
-        Mm, Km, Cm = _f(p.ref_mass), _f(p.ref_stiffness), _f(p.ref_damping)
+        super().reset()
+        p, h = self.p, self.ctx.control_dt
+        M, K, C = shared_value(p.mass), shared_value(p.stiffness), shared_value(p.lin_damping)
+        Mm, Km, Cm = shared_value(p.ref_mass), shared_value(p.ref_stiffness), shared_value(p.ref_damping)
         Ac = np.array([[0.0, 1.0], [-K / M, -C / M]])
         A, B = darma(Ac, np.array([[0.0], [1.0 / M]]), np.array([[1.0, 0.0]]), h)
         wm, zm = np.sqrt(Km / Mm), Cm / (2 * np.sqrt(Km * Mm))
         self.am = am_poly(wm, zm, h)
-        D, alpha, beta = predictor(A, B, self.am, int(_f(p.delay_steps)))
+        D, alpha, beta = predictor(A, B, self.am, int(shared_value(p.delay_steps)))
         self.D = D
-        th0 = theta_from_predictor(alpha, beta)
-        self.core = DiscreteMRAC(th0, 1, D, self.am, n, _f(p.p0), _f(p.q), _f(p.trace_max), u_max=None,
-                                 kappa=_f(p.kappa))
-        Ar = np.array([[0.0, 1.0], [-Km / Mm, -Cm / Mm]])
-        self.ref = FilterBank(Ar, np.array([[0.0], [Km / Mm]]), np.eye(2), np.zeros((2, 1)), h, n, 1)
-        self.targets = np.zeros((n, max(D + 1, 3)))  # Y*[k+D], Y*[k+D−1], …, Y*[k]
+        self.core = DiscreteMRAC(theta_from_predictor(alpha, beta), 1, D, self.am, shared_value(p.p0),
+                                 shared_value(p.q), shared_value(p.trace_max), u_max=None, kappa=shared_value(p.kappa))
+        # the reference, driven by the readings up to k−1 (ref_x) and by w[k] (the target D samples ahead)
+        self.ref = ZOHFilter(np.array([[0.0, 1.0], [-Km / Mm, -Cm / Mm]]), np.array([[0.0], [Km / Mm]]), np.eye(2),
+                             np.zeros((2, 1)), h)
+        self.n_targets = max(D + 1, 3)  # Y*[k+D], Y*[k+D−1], …, Y*[k]
         self.Kn, self.Cn = K, C
-        self._sig = {}
-
-    def step(self, t, y):
-        x = y["body_pos"][:, 0]
-        w = y["road"][:, 0]
-        wd = y["road_vel"][:, 0]
-        r = self.ref.output()[:, 0, :]  # reference driven by the readings up to k−1
-        self.ref.update(w[:, None])
-        rn = self.ref.output()[:, 0, :]  # … and by w[k]: the target D samples ahead
-        self.targets = np.roll(self.targets, 1, axis=1)
-        self.targets[:, 0] = rn[:, 0]
-        am = self.am
-        ybar = am[0] * self.targets[:, 0] + am[1] * self.targets[:, 1] + am[2] * self.targets[:, 2]
-        UT = self.core.step(x[:, None], ybar[:, None])[:, 0]
-        ff = self.Kn * w + self.Cn * wd if self.p.road_feedforward else 0.0
-        u = np.clip(UT - ff, -_f(self.p.u_max), _f(self.p.u_max))
-        if self.p.u_max is not None:  # keep the RLS fed with the force actually applied
-            self.core.U[:, 0, 0] = u + ff
-        target_now = self.targets[:, self.D]
-        Km, Mm, Cm = _f(self.p.ref_stiffness), _f(self.p.ref_mass), _f(self.p.ref_damping)
-        self._sig = {"theta": self.core.theta_unscaled[:, :, 0], "ref_x": r[:, 0],
-                     "ref_acc": (-Cm * r[:, 1] - Km * (r[:, 0] - w)) / Mm, "ref_travel": r[:, 0] - w,
-                     "err": x - target_now, "pred_err": self.core.err[:, 0]}
-        return u[:, None]
-
-    def signals(self):
-        return self._sig
-
-    # ---- compiled kernel (see _kernel) ----
-    kernel = staticmethod(_kernel)
 
     def kernel_data(self):
         n, p, core = self.ctx.n_cars, self.p, self.core
-        if self.p.u_max is None:  # (the field is required; step would then skip the U correction)
-            raise NotImplementedError("the kernel needs u_max")
         lay = KernelLayout(n)
-        lay.p(np.zeros(_PS))  # headers, filled by kernel_pack
-        npar = core.p
-        nt = self.targets.shape[1]
+        lay.p(np.zeros(_PS))  # headers, filled by pack
         sl = [float(self.ctx.sensor_slice(nm)[0]) for nm in ("body_pos", "road", "road_vel")]
-        lay.p(sl + [self.D, nt, _ST_TH + npar, *[float(a) for a in self.am[:3]], self.Kn, self.Cn,
-                    float(bool(p.road_feedforward)), _f(p.u_max), _f(p.ref_stiffness), _f(p.ref_mass),
-                    _f(p.ref_damping)])
-        sig = self._sig
-        cols = [np.broadcast_to(np.asarray(sig.get(k, 0.0), dtype=float), (n,))
-                for k in ("ref_x", "ref_acc", "ref_travel", "err", "pred_err")]
-        assert lay.st(np.stack(cols, axis=1), per_car=True) == _ST_RX
-        lay.st(np.zeros(3))
-        assert lay.st(core.theta_unscaled[:, :, 0], per_car=True) == _ST_TH
-        assert lay.st(self.targets, per_car=True) == _ST_TH + npar
-        core.kernel_pack(lay, _HDM)
-        self._kso = self.ref.kernel_pack(lay, _HREF)
+        lay.p(sl + [self.D, self.n_targets, _ST_TH + core.npar, *[float(a) for a in self.am[:3]], self.Kn, self.Cn,
+                    float(bool(p.road_feedforward)), shared_value(p.u_max), shared_value(p.ref_stiffness),
+                    shared_value(p.ref_mass), shared_value(p.ref_damping)])
+        assert lay.st(np.zeros(_ST_TH)) == _ST_RX  # signals, scratch
+        assert lay.st(core.theta0_unscaled()[:, 0]) == _ST_TH
+        assert lay.st(np.zeros(self.n_targets)) == _ST_TH + core.npar
+        core.pack(lay, _HDM, n)
+        self.ref.pack(lay, _HREF)
         return lay.arrays()
 
     def kernel_signals(self):
-        npar = self.core.p
+        npar = self.core.npar
         return {"theta": (_ST_TH, _ST_TH + npar), "ref_x": (_ST_RX, _ST_RX + 1), "ref_acc": (_ST_RA, _ST_RA + 1),
                 "ref_travel": (_ST_RT, _ST_RT + 1), "err": (_ST_E, _ST_E + 1), "pred_err": (_ST_PE, _ST_PE + 1)}
-
-    def kernel_sync(self, st):
-        st = np.asarray(st, dtype=float)
-        npar, nt = self.core.p, self.targets.shape[1]
-        self.core.kernel_sync(st)
-        self.ref.kernel_sync(st, self._kso)
-        self.targets = np.array(st[:, _ST_TH + npar:_ST_TH + npar + nt])
-        self._sig = {k: np.array(st[:, a:b]) if k == "theta" else np.array(st[:, a])
-                     for k, (a, b) in self.kernel_signals().items()}

@@ -30,10 +30,9 @@ This is an oracle, as in the thesis; it is said in the scenario file.
 Signals: ``gain.k`` (K), ``w_est.k`` (estimated road states), ``ref_*`` are not produced (no reference
 model); ``pi_acc`` (ẍ predicted by the model).
 
-Compiled kernel (``_kernel``, :mod:`suspension_sim.compiled`): ``step`` for one car with the rescheduled
-gains precomputed (``_gain`` for every schedule entry) — these are exact; the Kalman prediction
-W ← Wf Φᵀ is a BLAS product in ``step`` (FMA chain or gemv), summed in order in the kernel, so the road
-estimate and the command agree to ~1e-16 relative, not bit for bit; tests/test_kernels_thesis.py.
+The law is the numba kernel ``_kernel`` for one car (the base Controller broadcasts it over an ensemble,
+the compiled loop inlines it), with the rescheduled gains precomputed at ``kernel_data`` (``_gain`` for
+every schedule entry); tests/test_kernels_thesis.py checks it against the equations above.
 """
 from __future__ import annotations
 
@@ -48,7 +47,7 @@ from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
-from .thesis_common import KernelLayout, _f, k_dot, stamped_cache
+from .thesis_common import KernelLayout, k_dot, shared_value, stamped_cache
 
 
 class ScheduleEntry(BaseModel):
@@ -90,7 +89,7 @@ def lqr_gain(M, K, C, Md, rho1, rho2):
     return A, B, np.linalg.solve(R, B.T @ P + N.T)
 
 
-# ---- compiled kernel (suspension_sim.compiled): SOCLQG.step for one car ------------------------------------
+# ---- the law: one control step for one car (suspension_sim.compiled) ---------------------------------------
 # p: sensor offsets x, ẋ, w; update period; n schedule entries; L (3); Φ (3 × 3); the nominal gain (5); the
 # schedule times (n) and their gains (n × 5), computed by _gain at kernel_data.  st: gain (5), w_est (3),
 # W (3), next update time, X (5).
@@ -101,9 +100,8 @@ _ST_G, _ST_WF, _ST_W, _ST_NEXT, _ST_X = 0, 5, 8, 11, 12
 @stamped_cache
 @numba.njit(cache=True)
 def _kernel(t, y, p, st, u):
-    """W ← Wf Φᵀ is a BLAS product in step (an FMA chain or gemv, by build and size): summed here in
-    order without FMA, it can differ in the last bit (kernel_signals' w_est and the command within
-    ~1e-15 relative, tests/test_kernels_thesis.py)."""
+    """Gains of the schedule entry in force (at update instants), Kalman measurement update of the road
+    states Wf = W + L (w − W1), F = −K [x, ẋ, Wf], prediction W ← Φ Wf (summed in order)."""
     if t + 1e-9 >= st[_ST_NEXT]:
         ns = int(p[_P_NS])
         src = _P_G0
@@ -137,14 +135,15 @@ class SOCLQG(Controller):
 
     Params = SOCParams
     requires = ("body_pos", "body_vel", "road")
+    kernel = staticmethod(_kernel)
 
     def reset(self):
         from suspension_sim.roads.hac import hac_shaping_filter
 
-        p, n, h = self.p, self.ctx.n_cars, self.ctx.control_dt
-        Md, Dd, Cw = hac_shaping_filter(p.surface, _f(p.speed))
+        super().reset()
+        p, h = self.p, self.ctx.control_dt
+        Md, Dd, Cw = hac_shaping_filter(p.surface, shared_value(p.speed))
         self.Md = Md
-        self.gain = np.tile(self._gain(_f(p.mass), _f(p.stiffness), _f(p.damping)), (n, 1))
         # steady-state Kalman filter of the road model (exact discretisation, unit-intensity noise)
         nx = 3
         F = np.zeros((2 * nx, 2 * nx))
@@ -155,66 +154,36 @@ class SOCLQG(Controller):
         Phi = E[nx:, nx:].T
         Qd = Phi @ E[:nx, nx:]
         Qd = 0.5 * (Qd + Qd.T)
-        Rv = np.array([[_f(p.road_noise) ** 2]])
+        Rv = np.array([[shared_value(p.road_noise) ** 2]])
         Pp = solve_discrete_are(Phi.T, Cw.T, Qd, Rv)
         self.Lk = Pp @ Cw.T @ np.linalg.inv(Cw @ Pp @ Cw.T + Rv)  # measurement update gain
         self.Phi, self.Cw = Phi, Cw
-        self.W = np.zeros((n, 3))  # predicted road state
-        self.next_update = _f(p.update_period) if _f(p.update_period) > 0 else np.inf
-        self._sig = {}
+        self.next_update = shared_value(p.update_period) if shared_value(p.update_period) > 0 else np.inf
 
     def _gain(self, M, K, C):
-        return lqr_gain(M, K, C, self.Md, _f(self.p.rho1), _f(self.p.rho2))[2][0]
+        return lqr_gain(M, K, C, self.Md, shared_value(self.p.rho1), shared_value(self.p.rho2))[2][0]
 
     def _true_params(self, t):
-        cur = (_f(self.p.mass), _f(self.p.stiffness), _f(self.p.damping))
+        cur = (shared_value(self.p.mass), shared_value(self.p.stiffness), shared_value(self.p.damping))
         for e in self.p.schedule or []:
             if t >= e.time:
                 cur = (e.mass, e.stiffness, e.damping)
         return cur
-
-    def step(self, t, y):
-        if t + 1e-9 >= self.next_update:
-            self.gain[:] = self._gain(*self._true_params(t))
-            self.next_update += _f(self.p.update_period)
-        x = y["body_pos"][:, 0]
-        xd = y["body_vel"][:, 0]
-        w = y["road"][:, 0]
-        innov = w - self.W[:, 0]
-        Wf = self.W + innov[:, None] * self.Lk[:, 0][None, :]
-        X = np.concatenate([x[:, None], xd[:, None], Wf], axis=1)
-        F = -np.einsum("nk,nk->n", self.gain, X)
-        self.W = Wf @ self.Phi.T
-        self._sig = {"gain": self.gain.copy(), "w_est": Wf}
-        return F[:, None]
-
-    def signals(self):
-        return self._sig
-
-    # ---- compiled kernel (see _kernel) ----
-    kernel = staticmethod(_kernel)
 
     def kernel_data(self):
         n, p = self.ctx.n_cars, self.p
         lay = KernelLayout(n)
         sched = list(p.schedule or [])
         lay.p([float(self.ctx.sensor_slice(nm)[0]) for nm in ("body_pos", "body_vel", "road")]
-              + [_f(p.update_period), len(sched)])
+              + [shared_value(p.update_period), len(sched)])
         assert lay.p(self.Lk[:, 0]) == _P_L and lay.p(self.Phi) == _P_PHI
-        lay.p(self._gain(*self._true_params(-np.inf)))
+        gain0 = self._gain(*self._true_params(-np.inf))
+        lay.p(gain0)
         lay.p([e.time for e in sched])
         lay.p(np.array([self._gain(e.mass, e.stiffness, e.damping) for e in sched]).reshape(-1))
-        wf = self._sig.get("w_est", np.zeros((n, 3)))
-        lay.st(np.concatenate([self.gain, wf, self.W, np.full((n, 1), float(self.next_update)), np.zeros((n, 5))],
-                              axis=1), per_car=True)
+        # gain, w_est, W (the predicted road state), the next update time, scratch X
+        lay.st(np.concatenate([gain0, np.zeros(6), [float(self.next_update)], np.zeros(5)]))
         return lay.arrays()
 
     def kernel_signals(self):
         return {"gain": (_ST_G, _ST_G + 5), "w_est": (_ST_WF, _ST_WF + 3)}
-
-    def kernel_sync(self, st):
-        st = np.asarray(st, dtype=float)
-        self.gain = np.array(st[:, _ST_G:_ST_G + 5])
-        self.W = np.array(st[:, _ST_W:_ST_W + 3])
-        self.next_update = float(st[0, _ST_NEXT])
-        self._sig = {"gain": self.gain.copy(), "w_est": np.array(st[:, _ST_WF:_ST_WF + 3])}
