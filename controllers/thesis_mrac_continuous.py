@@ -106,7 +106,7 @@ _SIZES = {"fEf": (3, 1, 1, 1), "fP": (3, 1, 1, 4), "fsP": (3, 1, 1, 2), "fP2": (
 
 
 def _fixed_layout():
-    """{filter: (p offset of Ad, st offset of the state)} as kernel_data/kernel_pack place them."""
+    """{filter: (p offset of Ad, st offset of the state)} as kernel_data/ZOHFilter.pack place them."""
     po, so, out = _PG + 5, _ST_N, {}
     for nm in _FILTERS:
         ns, nin, nout, k = _SIZES[nm]
