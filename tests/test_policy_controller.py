@@ -124,3 +124,29 @@ def test_sb3_zip_policy(tmp_path):
     r_npz = Simulation([_scenario(type="policy", params={"path": str(tmp_path / "ppo.npz")})]).run()[0]
     a, b = r_zip.ts["command"].to_numpy(), r_npz.ts["command"].to_numpy()
     assert np.std(a) > 1.0 and np.max(np.abs(a - b)) < 1e-3 * 3000  # float32 torch vs float64 numpy
+
+
+def test_onnx_policy_equals_npz(tmp_path):
+    """The same 2-layer MLP as an ONNX graph (built with the onnx package here; skipped without onnxruntime)
+    and as .npz gives the same commands."""
+    pytest.importorskip("onnxruntime")
+    onnx = pytest.importorskip("onnx")
+    from onnx import TensorProto, helper, numpy_helper
+
+    rng = np.random.default_rng(3)
+    w0, b0, w1, b1 = rng.normal(size=(2, 8)), rng.normal(size=8), rng.normal(size=(8, 1)), rng.normal(size=1)
+    inits = [numpy_helper.from_array(a.astype(np.float32), name) for a, name in
+             ((w0, "w0"), (b0, "b0"), (w1, "w1"), (b1, "b1"))]
+    nodes = [helper.make_node("MatMul", ["obs", "w0"], ["h0"]), helper.make_node("Add", ["h0", "b0"], ["h1"]),
+             helper.make_node("Tanh", ["h1"], ["h2"]), helper.make_node("MatMul", ["h2", "w1"], ["h3"]),
+             helper.make_node("Add", ["h3", "b1"], ["act"])]
+    graph = helper.make_graph(nodes, "mlp", [helper.make_tensor_value_info("obs", TensorProto.FLOAT, [None, 2])],
+                              [helper.make_tensor_value_info("act", TensorProto.FLOAT, [None, 1])], inits)
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 13)])
+    model.ir_version = 8
+    onnx.save(model, tmp_path / "mlp.onnx")
+    save_npz(tmp_path / "mlp.npz", [(w0, b0), (w1, b1)])
+    r_onnx = Simulation([_scenario(type="policy", params={"path": str(tmp_path / "mlp.onnx")})]).run()[0]
+    r_npz = Simulation([_scenario(type="policy", params={"path": str(tmp_path / "mlp.npz")})]).run()[0]
+    a, b = r_onnx.ts["command"].to_numpy(), r_npz.ts["command"].to_numpy()
+    assert np.std(b) > 10 and np.max(np.abs(a - b)) < 1e-4 * 3000  # float32 vs float64

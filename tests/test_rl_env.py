@@ -156,3 +156,16 @@ def test_bad_input_one_line_errors():
         SuspensionEnv(raw)
     with pytest.raises(ScenarioError, match="randomize"):
         SuspensionEnv("quarter_car", randomize={"vehicle.params.sprung_mass": {"dist": "nosuch"}})
+
+
+def test_sb3_adapter_runs_ppo_on_the_ensemble():
+    """stable-baselines3 (skipped without it) learns on the compiled ensemble through SB3VecEnv; episodes end
+    together at sim.duration and are recorded with their return."""
+    sb3 = pytest.importorskip("stable_baselines3")
+    from suspension_sim.rl.sb3 import SB3VecEnv
+
+    env = SB3VecEnv(SuspensionVectorEnv(2, "quarter_car", overrides=["sim.duration=0.25"]))
+    model = sb3.PPO("MlpPolicy", env, n_steps=100, batch_size=100, n_epochs=1, seed=0, device="cpu")
+    model.learn(total_timesteps=400)
+    assert len(env.episodes) >= 6 and all(length == 50 for _, _, length in env.episodes)
+    assert all(ret < 0 for _, ret, _ in env.episodes)

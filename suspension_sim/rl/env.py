@@ -30,10 +30,11 @@ over one control step (``sim.control_dt``; the presets: 5 ms), which is one envi
          + w_travel · max(|s| − travel_limit, 0)²          s: suspension travel [m]
          + w_tire · (F_t / F_static)²                      F_t: dynamic tire force, F_static the static load
          + w_power · |F_a · ṡ|                             F_a: actuator force [N], ṡ travel rate [m/s]
-    reward = −cost   (− termination_penalty on the step that terminates)
+    reward = −cost   (− termination_penalty − w_remaining · steps left in the episode, on the step that terminates)
 
 Defaults ``w_acc=1, travel_limit=0.08 m, w_travel=1e4, w_tire=1, w_power=1e-4, terminate_travel=0.15 m,
-termination_penalty=100``: the passive quarter car on the class C road at 20 m/s costs about 0.5 per step.
+termination_penalty=100, w_remaining=5``: the passive quarter car on the class C road at 20 m/s costs about
+1.4 per step (mostly the Wk term), so ending an episode early by hitting the travel limit never pays.
 The Wk filter is the one of the ``iso2631_wk_rms`` metric (bilinear sections, :mod:`..metrics.iso2631`),
 discretised at the control rate and run step by step.  The weights are chosen here, not from a paper.
 
@@ -84,7 +85,8 @@ class Reward:
     w_tire: float = 1.0  # per (dynamic tire force / static tire force)²
     w_power: float = 1e-4  # per W of |actuator force × travel rate|
     terminate_travel: float = 0.15  # m: |travel| beyond this ends the episode
-    termination_penalty: float = 100.0
+    termination_penalty: float = 100.0  # on the terminating step, plus w_remaining per step not run
+    w_remaining: float = 5.0  # > the cost per step of any sane policy, so that ending early never pays
 
     @classmethod
     def of(cls, r) -> "Reward":
@@ -342,6 +344,11 @@ class _Core:
         self.t, readings, self.state = out
         return self.observe(readings), None
 
+    def penalty(self) -> float:
+        """The termination penalty at the current step (the steps not run are charged)."""
+        r = self.reward
+        return r.termination_penalty + r.w_remaining * max(self.n_episode_steps - self.k, 0)
+
     def costs(self, state) -> dict:
         """Per-car cost terms (n,) and the worst |travel| (n,) from the true state."""
         r = self.reward
@@ -416,13 +423,13 @@ class SuspensionEnv(gym.Env):
         if obs is None:
             self._done = True
             core.runner.close()
-            return (np.zeros(core.obs_dim, np.float32), -r.termination_penalty, True, False,
+            return (np.zeros(core.obs_dim, np.float32), -core.penalty(), True, False,
                     {"t": core.t, "diverged": True, "error": str(diverged) if diverged else "run ended"})
         terms, worst = core.costs(core.state)
         cost = float(sum(v[0] for v in terms.values()))
         terminated = bool(worst[0] > r.terminate_travel) or not np.all(np.isfinite(obs))
         truncated = (not terminated) and core.k >= core.n_episode_steps
-        reward = -cost - (r.termination_penalty if terminated else 0.0)
+        reward = -cost - (self._core.penalty() if terminated else 0.0)
         if terminated or truncated:
             self._done = True
             core.runner.close()
@@ -505,7 +512,7 @@ class SuspensionVectorEnv(gym.vector.VectorEnv):
                 term[:] = True
             else:
                 term[int(car)] = True
-            rew = np.where(term, -r.termination_penalty, 0.0)
+            rew = np.where(term, -core.penalty(), 0.0)
             self._new_episode = True
             core.runner.close()
             obs = np.zeros((n, core.obs_dim), np.float32)
@@ -513,7 +520,7 @@ class SuspensionVectorEnv(gym.vector.VectorEnv):
         terms, worst = core.costs(core.state)
         cost = sum(terms.values())
         terminated = (worst > r.terminate_travel) | ~np.all(np.isfinite(obs), axis=1)
-        reward = -cost - np.where(terminated, r.termination_penalty, 0.0)
+        reward = -cost - np.where(terminated, core.penalty(), 0.0)
         truncated = np.zeros(n, bool)
         if core.k >= core.n_episode_steps:
             truncated = ~terminated
