@@ -68,8 +68,23 @@ def test_discrete_mrac_holds_level_with_the_static_force(load_step):
     assert np.min(window(ts, 4, 16, "body_z")) > -0.125  # never reaches the stop the passive rests on
     force = np.mean(window(ts, 8, 16, "actuator_force"))
     assert force == pytest.approx(150 * G, rel=0.15)  # thesis: ≈ 1500 N
-    # model following: the tracking error after the initial adaptation is a fraction of the road amplitude
-    assert np.sqrt(np.mean(window(ts, 2, 4, "ctrl.err") ** 2)) < 0.02
+    # the baseline fails the level claim: the passive car sits on its stops
+    assert np.mean(window(load_step["passive"], 8, 16, "body_z")) < -0.1
+
+
+def test_model_following_is_not_reproduced_friction_locks_the_body(load_step):
+    """Thesis: model following within 1.5 s.  Not reproduced: the 1000 N Coulomb friction is far above the
+    road's spring force (K·|w| ≈ 150 N), so the passive body is locked to the base, and the MRAC's force
+    (RMS ≈ 570 N) does not break it away either: RMS(body − reference) is that of the passive car (18 mm)
+    while the reference itself moves 4 mm.  (κ = 1, the thesis's law: 16 mm, stuck 89 % of the time; no loop
+    delay: 17 mm, stuck 99 %.)  This test pins the failure so that a fix shows up here."""
+    e = {}
+    for v in ("passive", "mrac"):
+        ts = load_step[v]
+        m = (ts.t >= 1.5) & (ts.t < 4.0)
+        e[v] = np.sqrt(np.mean((ts.body_z[m] - load_step["mrac"]["ctrl.ref_x"][m]) ** 2))
+        assert ts["effect.coulomb_friction.stuck.0"][m].mean() > 0.9
+    assert e["mrac"] > 0.8 * e["passive"]
 
 
 def test_dirt_road_without_loop_delay_follows_reference_better_than_passive(request):

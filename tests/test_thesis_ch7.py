@@ -35,8 +35,25 @@ def test_mimo_mrac_removes_most_of_the_dive(braking):
     # bounce and pitch adapt within a few seconds of the manoeuvre start (1 s) and of the braking (9 s)
     assert np.max(np.abs(deg(braking["mimo_mrac"], 4.0, 9.0))) < 0.2
     assert np.max(np.abs(deg(braking["mimo_mrac"], 12.0, 14.0))) < 0.2
-    z = braking["mimo_mrac"].body_z
-    assert np.max(np.abs(z)) < 0.01
+    # (bounce is not tested here: on the thesis's symmetric car a pitch moment moves no c.g. height, so the
+    # bounce of both cars is identically zero; see test_bounce_on_the_asymmetric_car)
+
+
+def test_bounce_on_the_asymmetric_car(request):
+    """Thesis: bounce (and pitch) adapt within 4 s.  On a car with the c.g. off centre (a = 1.2 m, b = 1.8 m,
+    not the thesis's) the braking moment moves the passive c.g. by ≈ 1.5 cm (static (b − a)/L · M·a_x·h/(L·K)
+    = 1.7 cm); the MIMO MRAC must keep the bounce a fraction of it."""
+    sc = parse_scenario(read_yaml(request.config.rootpath / "scenarios" / "thesis_ch7_braking.yaml"))
+    runs = {v: s for v, s in sc.expand() if v in ("asym_passive", "asym_mimo_mrac")}
+    for s in runs.values():
+        s.sim.duration = 12.0
+    ts = {v: Simulation([s]).run()[0].ts for v, s in runs.items()}
+    brk = {v: r[(r.t > 9.0) & (r.t < 11.5)].body_z.to_numpy() for v, r in ts.items()}
+    static = 0.6 / 3.0 * 500 * 7 * 1.25 / (3.0 * 17000)
+    assert -np.mean(brk["asym_passive"]) > 0.5 * static  # the baseline bounces (it fails the claim)
+    assert np.max(np.abs(brk["asym_passive"])) > 0.01
+    assert np.max(np.abs(brk["asym_mimo_mrac"])) < 0.1 * np.max(np.abs(brk["asym_passive"]))
+    assert np.max(np.abs(ts["asym_mimo_mrac"].body_z)) < 0.003
 
 
 def test_actuator_polarities(braking):
