@@ -138,14 +138,14 @@ def _discrete():
 
 class RandomCfg(_Strict):
     n: int = Field(..., ge=1, description="number of samples")
-    seed: int = 0
+    seed: int = Field(0, ge=0)
     method: Literal["random", "lhs", "sobol"] = "random"
     params: dict[str, DistCfg]
 
 
 class SeedsCfg(_Strict):
     count: int = Field(..., ge=1, description="repeats of every variant with a different seed")
-    start: int = 0
+    start: int = Field(0, ge=0)
     path: str = Field("road.seed", description="the scenario field the seed goes into")
 
 
@@ -176,12 +176,18 @@ class Sweep(_Strict):
 
 def load_sweep(path: str | Path) -> tuple[Sweep, dict]:
     """The validated sweep and its base scenario's raw dict."""
-    raw = read_yaml(path)
+    from .strict import check as strict_check
+
+    raw = read_yaml(path, "sweep file")
     try:
         sw = Sweep.model_validate(raw)
+        strict_check(raw, sw)
     except ValidationError as err:
         f, msg = format_validation_error(err)
         raise ScenarioError(msg, source=str(path), field=f) from None
+    except ScenarioError as err:  # a lax conversion or a non-finite number: name the sweep file
+        msg = str(err)[len(err.field) + 2:] if err.field and str(err).startswith(err.field + ": ") else str(err)
+        raise ScenarioError(msg, source=str(path), field=err.field) from None
     if isinstance(sw.base, dict):
         base = copy.deepcopy(sw.base)
     else:
@@ -258,8 +264,20 @@ def _samples(rc: RandomCfg) -> list[dict]:
     return [{p: cols[p][i] for p in cols} for i in range(rc.n)]
 
 
+def count_runs(sw: Sweep) -> int:
+    """The number of runs of a sweep, computed without expanding it."""
+    n = math.prod(len(v) for v in sw.grid.values()) if sw.grid else 1
+    n *= len(next(iter(sw.lists.values()))) if sw.lists else 1
+    n *= sw.random.n if sw.random else 1
+    n *= sw.seeds.count if sw.seeds else 1
+    return n
+
+
 def combinations(sw: Sweep) -> list[dict]:
     """The overrides of every run (grid × lists × random samples × seeds), in a fixed order."""
+    from . import limits
+
+    limits.check("sweep_runs", count_runs(sw), field="grid/lists/random/seeds")
     grid = [dict(zip(sw.grid, combo)) for combo in itertools.product(*sw.grid.values())] if sw.grid else [{}]
     n_list = len(next(iter(sw.lists.values()))) if sw.lists else 0
     lists = [{k: v[i] for k, v in sw.lists.items()} for i in range(n_list)] or [{}]
@@ -520,8 +538,11 @@ class LocalEngine:
 
         ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else None
 
-        def fresh():
-            return ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)
+        from .lifecycle import worker_initializer
+
+        def fresh():  # workers die with this process (SIGKILL included), see suspension_sim.lifecycle
+            return ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx, initializer=worker_initializer,
+                                       initargs=(os.getpid(),))
 
         ex = fresh()
         try:
@@ -556,7 +577,12 @@ class LocalEngine:
                     ex = fresh()
                 except Exception as e:  # noqa: BLE001
                     on_fail(i, e)
-        except BaseException:  # Ctrl-C: drop queued tasks instead of waiting for them (results so far are kept)
+        except BaseException:  # Ctrl-C, SIGTERM: drop queued tasks and stop the running ones (results so far are kept)
+            for p in list(getattr(ex, "_processes", {}).values()):
+                try:
+                    p.terminate()
+                except Exception:  # noqa: BLE001 - already gone
+                    pass
             ex.shutdown(wait=False, cancel_futures=True)
             raise
         ex.shutdown(wait=True)
@@ -585,10 +611,16 @@ class DaskEngine:
             self.label = f"dask {scheduler}"
         else:
             n = max(1, n_local or 1)
-            self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                                        silence_logs=40)
+            # scheduler, workers and dashboard on the loopback interface only (never 0.0.0.0)
+            self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                        dashboard_address="127.0.0.1:0", silence_logs=40)
             self.client = Client(self.cluster)
             self.label = f"dask local cluster ({n} workers)"
+            from .lifecycle import die_with_parent
+
+            # the nannies die with this process and the workers with their nanny (SIGKILL of batch included)
+            self.client.run(die_with_parent, nanny=True)
+            self.client.run(die_with_parent)
         # the package must be importable on the workers: send this checkout's path along (local clusters)
         import sys
 
@@ -651,7 +683,11 @@ class Store:
 
         frames = []
         if (self.out / "summary.parquet").exists():
-            frames.append(pd.read_parquet(self.out / "summary.parquet"))
+            try:
+                frames.append(pd.read_parquet(self.out / "summary.parquet"))
+            except Exception as err:  # noqa: BLE001 - written by rename, so only damaged from outside
+                raise ScenarioError(f"summary.parquet is unreadable ({str(err).splitlines()[0][:100]}); move it away "
+                                    "or run with --fresh", source=str(self.out)) from None
         for p in sorted(self.parts.glob("part-*.parquet")):
             try:
                 frames.append(pd.read_parquet(p))
@@ -667,10 +703,13 @@ class Store:
             ts = r.pop("_timeseries", None)
             if ts is not None:
                 self.ts_dir.mkdir(exist_ok=True)
-                (self.ts_dir / f"{r['hash']}.parquet").write_bytes(ts)
+                tmp = self.ts_dir / f".{r['hash']}.tmp"
+                tmp.write_bytes(ts)
+                tmp.replace(self.ts_dir / f"{r['hash']}.parquet")
             self._buf.append(r)
-        if len(self._buf) >= 500 or time.monotonic() - self._last > 5.0:
-            self.flush()
+        # every finished task is on disk at once (one small part file per task, merged at the end): a batch
+        # killed at any moment loses no finished run
+        self.flush()
 
     def flush(self):
         if not self._buf:
@@ -746,7 +785,13 @@ def run_batch(sweep_path: str | Path, out: str | Path | None = None, workers: in
     finish."""
     import shutil
 
-    pl = plan(sweep_path, ensemble_size)
+    try:
+        pl = plan(sweep_path, ensemble_size)
+    except ScenarioError as err:
+        if err.source is None:  # a limit hit while expanding: name the sweep file
+            raise ScenarioError(str(err)[len(err.field) + 2:] if err.field else str(err), source=str(sweep_path),
+                                field=err.field) from None
+        raise
     out = Path(out) if out else Path("runs") / f"batch-{pl.sweep.name}"
     if not resume and out.exists():
         for name in ("summary.parquet", "parts", "timeseries"):

@@ -27,23 +27,46 @@ err_console = Console(stderr=True)
 
 
 def fail(msg: str, code: int = 2):
-    err_console.print(f"[bold red]error:[/] {msg}", highlight=False, soft_wrap=True)
+    """Print ``error: <msg>`` on one line, the message literally (no rich markup: ``[batch]`` stays), and exit."""
+    from rich.text import Text
+
+    one_line = " ".join(str(msg).split("\n"))
+    err_console.print(Text.assemble(("error:", "bold red"), " ", one_line), highlight=False, soft_wrap=True)
     raise typer.Exit(code)
 
 
 def guarded(fn):
-    """Run ``fn`` turning user mistakes and divergence into one-line errors."""
+    """Run ``fn`` turning user mistakes and divergence into one-line errors (never a traceback: an
+    unexpected exception is reported in one line too, exit status 1)."""
+    from .lifecycle import install_signal_handlers
+
+    install_signal_handlers()
     try:
         return fn()
     except ScenarioError as e:
         fail(str(e), 2)
     except SimulationDiverged as e:
         fail(str(e), 3)
+    except (typer.Exit, typer.Abort, KeyboardInterrupt, SystemExit):
+        raise
+    except MemoryError:
+        fail("out of memory (a limit of suspension_sim.limits may be set too high for this machine)", 2)
+    except OSError as e:
+        fail(f"{getattr(e, 'filename', None) or ''}{': ' if getattr(e, 'filename', None) else ''}"
+             f"{e.strerror or e}", 2)
+    except Exception as e:  # noqa: BLE001 - a bug: one line, status 1 (SUSPENSION_SIM_DEBUG=1 shows the traceback)
+        import os
+
+        if os.environ.get("SUSPENSION_SIM_DEBUG"):
+            raise
+        fail(f"internal error: {type(e).__name__}: {e} (set SUSPENSION_SIM_DEBUG=1 for the traceback)", 1)
 
 
 def default_out(name: str) -> Path:
+    from .outdir import unique_default
+
     stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
-    return Path("runs") / f"{name.replace('/', '_')}-{stamp}"
+    return unique_default(Path("runs") / f"{name.replace('/', '_')}-{stamp}")
 
 
 @app.command()
@@ -55,50 +78,63 @@ def run(
     view: bool = typer.Option(False, "--view", help="stream the run to a meshcat viewer in the browser"),
     view_rate: Optional[float] = typer.Option(None, "--view-rate", min=0.0,
                                               help="with --view: simulated seconds per wall second (1 = real time, 0 = as fast as it runs)"),
+    overwrite: bool = typer.Option(False, "--overwrite", help="replace the results in an existing --out folder"),
 ):
     """Simulate a scenario (all its variants) and write time series, metrics, plots."""
+    from rich.markup import escape
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
-    from .config import load_scenario
+    from .outdir import prepare
     from .outputs import write_result
-    from .simulation import Simulation
+    from .preflight import build
 
     def go():
-        sc = load_scenario(scenario, set_ or [])
-        variants = sc.expand(str(scenario))
-        folder = out or default_out(sc.name)
-        results = {}
+        sc, sims = build(scenario, set_ or [])  # every pre-run check, for every variant, before any step
+        folder = prepare(out, overwrite) if out else default_out(sc.name)
+        results, diverged = {}, []
         with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
                       TimeRemainingColumn(), console=err_console, disable=quiet or not sys.stderr.isatty()) as prog:
-            for vname, vsc in variants:
-                task = prog.add_task(f"{vname}", total=1.0)
-                sim = Simulation([vsc], str(scenario))
+            for vname, sim in sims:
+                task = prog.add_task(escape(f"{vname}"), total=1.0)
                 if view:
                     from .viewer import attach_live_viewer  # provided by the viewer module
 
                     attach_live_viewer(sim, console=console, **({"rate": view_rate} if view_rate is not None else {}))
-                res = sim.run(progress=lambda f, t=task: prog.update(t, completed=f))[0]
+                try:
+                    res = sim.run(progress=lambda f, t=task: prog.update(t, completed=f))[0]
+                except SimulationDiverged as err:  # the other variants still run and are written
+                    diverged.append((vname, err.locate(str(scenario), vname)))
+                    continue
                 results[vname] = res
-        multi = len(variants) > 1 or bool(sc.variants)
+        multi = len(sims) > 1 or bool(sc.variants)
         for vname, res in results.items():
             write_result(res, folder / vname if multi else folder, plots=sc.outputs.plots,
                          timeseries=sc.outputs.timeseries)
-        if multi and sc.outputs.plots:
+        if multi and sc.outputs.plots and results:
             from .plots import plot_run
 
             plot_run({k: v for k, v in results.items()}, folder / "plots")
-        if multi:
+        if multi and results:
             import json
 
-            (folder / "summary.json").write_text(json.dumps(
-                {k: {"metrics": v.metrics, "full_state_access": v.info["full_state_access"]} for k, v in results.items()},
-                indent=2))
-        _print_metrics(results)
-        console.print(f"run folder: [bold]{folder}[/]")
+            from .outdir import write_atomic
+
+            summary = {k: {"metrics": v.metrics, "full_state_access": v.info["full_state_access"]}
+                       for k, v in results.items()}
+            summary.update({v: {"status": "diverged", "error": str(e)} for v, e in diverged})
+            write_atomic(folder / "summary.json", json.dumps(summary, indent=2))
+        if results:
+            _print_metrics(results)
+            console.print(f"run folder: [bold]{escape(str(folder))}[/]")
         for r in results.values():
             if r.info.get("full_state_access"):
                 console.print("[yellow]note:[/] the controller had full-state access (controller.full_state: true)")
                 break
+        if diverged:
+            if results:
+                console.print(f"written: {', '.join(results)}; diverged: {', '.join(v for v, _ in diverged)}",
+                              highlight=False, markup=False)
+            raise diverged[0][1]
 
     guarded(go)
 
@@ -129,13 +165,15 @@ def validate(
     scenario: Path = typer.Argument(..., help="scenario YAML file"),
     set_: Optional[List[str]] = typer.Option(None, "--set", "-s", help="override: path.to.key=value"),
 ):
-    """Check a scenario file without running it."""
-    from .config import load_scenario
+    """Check a scenario file without running it (every check that ``run`` makes before stepping)."""
+    from rich.markup import escape
+
+    from .preflight import build
 
     def go():
-        sc = load_scenario(scenario, set_ or [])
-        n = len(sc.expand(str(scenario)))
-        console.print(f"[green]ok[/]: {scenario} ({sc.vehicle.model}, road {sc.road.type}, controller "
+        sc, sims = build(scenario, set_ or [])  # builds every variant's model and components, no stepping
+        n = len(sims)
+        console.print(f"[green]ok[/]: {escape(str(scenario))} ({sc.vehicle.model}, road {sc.road.type}, controller "
                       f"{sc.controller.type}, {n} variant{'s' if n != 1 else ''})")
 
     guarded(go)

@@ -60,11 +60,18 @@ def _union_tag(p) -> bool:
 
 
 def validate_params(model: type[BaseModel], raw: dict | None, field: str, source: str | None = None) -> BaseModel:
+    from .strict import check as strict_check
+
+    if raw is not None and not isinstance(raw, dict):
+        raise ScenarioError(f"expects a mapping of parameters, got {type(raw).__name__} {raw!r}"[:300],
+                            source=source, field=field)
     try:
-        return model.model_validate(raw or {})
+        out = model.model_validate(raw or {})
     except ValidationError as err:
         f, msg = format_validation_error(err, field)
         raise ScenarioError(msg, source=source, field=f) from None
+    strict_check(raw or {}, out, field, source)  # no lax conversions (true -> 1.0, "10" -> 10), finite numbers
+    return out
 
 
 def stack_params(params: Iterable[BaseModel], n_corners: int) -> SimpleNamespace:

@@ -24,7 +24,6 @@ import json
 from pathlib import Path
 from typing import Any, Literal, Optional, Union
 
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from .components import format_validation_error, validate_params
@@ -76,7 +75,7 @@ class RoadCfg(_Strict):
     params: dict[str, Any] = Field(default_factory=dict)
     speed: Union[float, list[tuple[float, float]]] = Field(
         20.0, description="vehicle speed in m/s, constant or a list of [time, speed] points (linear)")
-    seed: Optional[int] = Field(None, description="road seed (default: sim.seed)")
+    seed: Optional[int] = Field(None, ge=0, description="road seed (default: sim.seed)")
     tracks: Literal["same", "independent"] = "same"
 
     @field_validator("speed")
@@ -124,7 +123,7 @@ class SimCfg(_Strict):
     dt: float = Field(0.0005, gt=0, le=0.01, description="physics step in s")
     control_dt: float = Field(0.001, gt=0, description="control step in s (a multiple of dt)")
     log_dt: float = Field(0.001, gt=0, description="logging step in s (a multiple of dt)")
-    seed: int = 0
+    seed: int = Field(0, ge=0)
     integrator: Literal["implicitfast", "trapezoidal", "RK4"] = Field(
         "implicitfast", description="MuJoCo integrator: implicitfast (default; dampers implicit, robust for stiff "
         "elements, first order: ~w*dt/2 phase lag); trapezoidal (MuJoCo's implicitfast step with the linear "
@@ -144,6 +143,20 @@ class SimCfg(_Strict):
             if abs(r - round(r)) > 1e-6 or round(r) < 1:
                 raise ValueError(f"must be a whole multiple of dt={dt}")
         return v
+
+    @model_validator(mode="after")
+    def _sizes(self):  # before anything is allocated: a run must have a step, and fit the limits
+        from . import limits
+
+        if not (self.duration < float("inf")):
+            return self  # reported as non-finite by the strict check
+        if self.duration < self.dt * (1 - 1e-9):
+            raise ValueError(f"duration={self.duration:g} s is shorter than one physics step dt={self.dt:g} s")
+        if self.duration < self.log_dt * (1 - 1e-9):
+            raise ValueError(f"duration={self.duration:g} s is shorter than one logging step log_dt={self.log_dt:g} s")
+        limits.check("steps", self.duration / self.dt)
+        limits.check("log_samples", self.duration / self.log_dt)
+        return self
 
 
 class OutputsCfg(_Strict):
@@ -210,13 +223,22 @@ def apply_set(raw: dict, assignment: str, source: str | None = None) -> dict:
     if "=" not in assignment:
         raise ScenarioError(f"--set expects path.to.key=value, got {assignment!r}", source=source)
     path, _, text = assignment.partition("=")
+    from .safeyaml import loads
+
     try:
-        value = yaml.safe_load(text)
-    except yaml.YAMLError:
+        value = loads(text, source=source, field=f"--set {path.strip()}")
+    except ScenarioError as err:
+        if "not valid YAML" not in str(err):
+            raise  # a limit (alias bomb, depth): never fall back to the text
         value = text
     keys = path.strip().split(".")
     if not all(keys):
         raise ScenarioError(f"--set has an empty key in {path!r}", source=source)
+    vs = raw.get("variants") if isinstance(raw.get("variants"), dict) else {}
+    if keys[0] == "variants" and len(keys) > 2 and keys[1] not in vs:
+        known = ", ".join(map(str, vs)) or "none"  # a misspelt name would make a new variant
+        raise ScenarioError(f"--set: unknown variant {keys[1]!r} (the scenario has: {known}; to add a variant "
+                            f"set it whole: --set variants.{keys[1]}={{...}})", source=source, field=path.strip())
     node: Any = raw
     for i, k in enumerate(keys[:-1]):
         if isinstance(node, list):
@@ -241,28 +263,31 @@ def apply_set(raw: dict, assignment: str, source: str | None = None) -> dict:
     return raw
 
 
-def read_yaml(path: str | Path) -> dict:
-    p = Path(path)
-    if not p.exists():
-        raise ScenarioError("file not found", source=str(path))
-    try:
-        raw = yaml.safe_load(p.read_text())
-    except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        where = f" at line {mark.line + 1}" if mark else ""
-        raise ScenarioError(f"not valid YAML{where}: {getattr(err, 'problem', err)}", source=str(path)) from None
+def read_yaml(path: str | Path, what: str = "scenario file") -> dict:
+    """A YAML mapping from a user's file, read safely (:mod:`suspension_sim.safeyaml`: size, alias-expansion and
+    depth limits, UTF-8 only, duplicate keys refused)."""
+    from .safeyaml import load_file
+
+    raw = load_file(path, what)
     if not isinstance(raw, dict):
         raise ScenarioError("a scenario must be a YAML mapping", source=str(path))
     return raw
 
 
 def parse_scenario(raw: dict, source: str | None = None, field_prefix: str = "") -> Scenario:
+    from .strict import check as strict_check
+
     try:
         sc = Scenario.model_validate(raw)
+        strict_check(raw, sc)
     except ValidationError as err:
         field, msg = format_validation_error(err)
         if field_prefix:
             field = f"{field_prefix}:{field}"
+        raise ScenarioError(msg, source=source, field=field) from None
+    except ScenarioError as err:  # a lax conversion (true for a number, "10", .inf): name the field
+        field = f"{field_prefix}:{err.field}" if field_prefix else err.field
+        msg = str(err)[len(err.field) + 2:] if err.field and str(err).startswith(err.field + ": ") else str(err)
         raise ScenarioError(msg, source=source, field=field) from None
     try:
         check_components(sc, source)

@@ -22,13 +22,32 @@ class ScenarioError(ValueError):
 
 
 class SimulationDiverged(RuntimeError):
-    """The simulation produced NaN or a runaway state."""
+    """The simulation produced NaN or a runaway state.  ``source`` (scenario file) and ``variant`` (the run's
+    name) are added by :meth:`locate` where they are known, so the message says which run diverged."""
 
-    def __init__(self, time: float, state: dict, hint: str, car: int | None = None):
+    def __init__(self, time: float, state: dict, hint: str, car: int | None = None, source: str | None = None,
+                 variant: str | None = None):
         self.time = time
         self.state = state
         self.hint = hint
         self.car = car
-        st = ", ".join(f"{k}={v:.4g}" for k, v in state.items())
-        where = f" (car {car})" if car is not None else ""
-        super().__init__(f"simulation diverged at t={time:.4f} s{where}: {st}. Hint: {hint}")
+        self.source = source
+        self.variant = variant
+        super().__init__(self._message())
+
+    def _message(self) -> str:
+        st = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in self.state.items())
+        where = f" (car {self.car})" if self.car is not None else ""
+        head = ": ".join(str(x) for x in (self.source, self.variant) if x)
+        return (f"{head + ': ' if head else ''}simulation diverged at t={self.time:.4f} s{where}: "
+                f"{st or 'no state recorded'}. Hint: {self.hint}")
+
+    def locate(self, source: str | None = None, variant: str | None = None) -> "SimulationDiverged":
+        """Add the scenario file and the run's name (where not known yet); returns self."""
+        self.source = self.source or source
+        self.variant = self.variant or variant
+        self.args = (self._message(),)
+        return self
+
+    def __reduce__(self):
+        return (type(self), (self.time, self.state, self.hint, self.car, self.source, self.variant))

@@ -10,6 +10,9 @@ import json
 from pathlib import Path
 
 
+TIMING_KEYS = ("wall_time_s",)  # Result.info entries that vary from run to run (written to timing.json)
+
+
 def write_result(result, out: Path, plots: bool = True, timeseries: bool = True) -> Path:
     """Write ``timeseries.parquet``, ``summary.json``, ``scenario.resolved.yaml`` and ``plots/*.png`` (and
     ``viewer.html`` / ``report.html`` when the scenario's ``outputs.viewer`` / ``outputs.report`` are set)."""
@@ -18,15 +21,24 @@ def write_result(result, out: Path, plots: bool = True, timeseries: bool = True)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     if timeseries:
-        result.timeseries.to_parquet(out / "timeseries.parquet", index=False)
+        tmp = out / ".timeseries.parquet.tmp"
+        result.timeseries.to_parquet(tmp, index=False)
+        tmp.replace(out / "timeseries.parquet")
     resolved = result.scenario.resolved_dict()
     resolved.pop("variants", None)
     resolved["sim"]["seed"] = result.scenario.sim.seed
     header = (f"# resolved by suspension_sim {result.info['versions'].get('suspension_sim')} "
               f"(mujoco {result.info['versions'].get('mujoco')}); rerun with: suspension-sim run {out / 'scenario.resolved.yaml'}\n")
     (out / "scenario.resolved.yaml").write_text(header + yaml.safe_dump(resolved, sort_keys=False))
-    summary = {"name": result.scenario.name, "metrics": result.metrics, "info": result.info}
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
+    from .outdir import write_atomic
+
+    # summary.json is a function of the scenario and its seed (byte-identical when rerun); wall-clock times go
+    # to timing.json
+    info = dict(result.info)
+    timing = {k: info.pop(k) for k in TIMING_KEYS if k in info}
+    summary = {"name": result.scenario.name, "metrics": result.metrics, "info": info}
+    write_atomic(out / "summary.json", json.dumps(summary, indent=2, default=float))
+    write_atomic(out / "timing.json", json.dumps(timing, indent=2, default=float))
     if plots:
         from .plots import plot_run
 

@@ -28,7 +28,6 @@ def load_run(run_dir) -> "object":
     ``summary.json``, ``scenario.resolved.yaml``).  The scenario is validated when possible, else kept as a
     plain dict."""
     import pandas as pd
-    import yaml
 
     from .errors import ScenarioError
     from .results import Result
@@ -40,14 +39,26 @@ def load_run(run_dir) -> "object":
                             source=str(d))
     if not (d / "summary.json").exists():
         raise ScenarioError("not a run folder (no summary.json)", source=str(d))
-    summary = json.loads((d / "summary.json").read_text())
+    try:
+        summary = json.loads((d / "summary.json").read_text(encoding="utf-8"))
+    except (ValueError, UnicodeDecodeError) as err:
+        raise ScenarioError(f"summary.json is not readable JSON ({str(err).splitlines()[0][:120]})",
+                            source=str(d)) from None
+    if not isinstance(summary, dict):
+        raise ScenarioError("summary.json is not a run summary", source=str(d))
     ts_path = d / "timeseries.parquet"
     if not ts_path.exists():
         raise ScenarioError("the run folder has no timeseries.parquet (outputs.timeseries was off)", source=str(d))
-    ts = pd.read_parquet(ts_path)
+    try:
+        ts = pd.read_parquet(ts_path)
+    except Exception as err:  # noqa: BLE001 - pyarrow's messages vary
+        raise ScenarioError(f"cannot read timeseries.parquet ({str(err).splitlines()[0][:120]})",
+                            source=str(d)) from None
     raw = {}
     if (d / "scenario.resolved.yaml").exists():
-        raw = yaml.safe_load((d / "scenario.resolved.yaml").read_text()) or {}
+        from .safeyaml import load_file
+
+        raw = load_file(d / "scenario.resolved.yaml", "resolved scenario") or {}
     scenario = raw
     try:
         from .config import parse_scenario

@@ -408,7 +408,7 @@ class Simulation:
 
         mode, self.loop_reason = plan(self)
         self.loop = mode or "python"
-        with _one_blas_thread():
+        with _one_blas_thread(), _located(self):
             if mode is not None:
                 self.results = run_compiled(self, mode, progress)
                 return self.results
@@ -450,7 +450,7 @@ class Simulation:
             e.reset()
         for ch in self.sensors:
             ch.reset()
-        logger = Logger(self, n_log=self.n_steps // self.log_every)
+        logger = Logger(self, n_log=n_log_samples(self.n_steps, self.log_every))
         command = np.zeros((n, nc))
         F_act = np.zeros((n, nc))
         F_eff = np.zeros((n, nc))
@@ -587,7 +587,9 @@ class Simulation:
             else:
                 hint = (f"runaway state: MuJoCo met a huge value in {what} and reset the state; the controller may be "
                         "unstable or the step too large for a stiff element")
-            raise SimulationDiverged(t, {}, hint, car=car if P.n > 1 else None)
+            from .divergence import nonfinite_state
+
+            raise SimulationDiverged(t, nonfinite_state(self, what, car), hint, car=car if P.n > 1 else None)
         bad_q = ~np.isfinite(q) | (np.abs(q) > lim_x)
         bad_v = ~np.isfinite(v) | (np.abs(v) > lim_v)
         if bad_q.any() or bad_v.any():
@@ -612,6 +614,22 @@ class Simulation:
                     "runaway state: the step may be too large for a stiff effect or actuator (try a smaller sim.dt), "
                     "the controller may be unstable, or the limits sim.max_displacement/max_velocity too tight")
             raise SimulationDiverged(t, state, hint, car=car if P.n > 1 else None)
+
+
+def n_log_samples(n_steps: int, log_every: int) -> int:
+    """Logged instants of a run: steps 0, log_every, 2·log_every, ... below n_steps (one more than
+    n_steps // log_every when the duration is not a multiple of log_dt)."""
+    return -(-int(n_steps) // int(log_every))
+
+
+@contextlib.contextmanager
+def _located(sim):
+    """A divergence names the scenario file and the run (variant) it happened in."""
+    try:
+        yield
+    except SimulationDiverged as err:
+        car = err.car if err.car is not None and err.car < len(sim.scenarios) else 0
+        raise err.locate(sim.source, sim.scenarios[car].name) from None
 
 
 _BLAS_LIMITED = False

@@ -739,8 +739,11 @@ class LiveServer:
     """A meshcat server (websocket + files bound to 127.0.0.1, commands over ZMQ on 127.0.0.1)."""
 
     def __init__(self, timeout: float = 20.0):
+        from .lifecycle import child_preexec
+
         self.proc = subprocess.Popen([sys.executable, "-u", "-c", _SERVER_CODE], stdout=subprocess.PIPE,
-                                     stderr=subprocess.DEVNULL, start_new_session=True)
+                                     stderr=subprocess.DEVNULL, start_new_session=True,
+                                     preexec_fn=child_preexec())  # dies with us, SIGKILL included
         self.zmq_url = self.web_url = None
         t0 = _time.monotonic()
         while self.web_url is None:

@@ -143,7 +143,8 @@ def test_set_overrides(tmp_path):
     ("sim..dt=1", None, "empty key"),
     ("sensors.7.type=x", "sensors.7", "no list item"),
     ("sim.duration.x=1", "sim.duration", "not a mapping"),
-    ("variants.a.sim.dt=-1", "variants.a:sim.dt", "greater than 0"),
+    ("variants.a.sim.dt=-1", "variants.a.sim.dt", "unknown variant 'a'"),  # a misspelt name is no new variant
+    ("variants.a={sim: {dt: -1}}", "variants.a:sim.dt", "greater than 0"),  # a new variant is set whole
 ])
 def test_bad_set_overrides(tmp_path, override, field, text):
     p = _write(tmp_path, GOOD)
@@ -247,4 +248,6 @@ def test_cli_subprocess_end_to_end(tmp_path):
     r = subprocess.run([sys.executable, "-m", "suspension_sim.cli", "run", str(p2), "-q", "--out",
                         str(tmp_path / "o"), *DIVERGE], capture_output=True, text=True, cwd=REPO, env=env, timeout=120)
     assert r.returncode == 3 and "Traceback" not in r.stderr
-    assert len([ln for ln in r.stderr.splitlines() if ln.startswith("error: simulation diverged at t=")]) == 1
+    # the message names the file and the run (variant) that diverged
+    assert len([ln for ln in r.stderr.splitlines() if ln.startswith(f"error: {p2}: ")
+                and ": simulation diverged at t=" in ln]) == 1

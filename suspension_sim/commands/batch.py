@@ -24,6 +24,8 @@ def register(app: typer.Typer) -> None:
                                     help="recompute only missing or failed runs in --out (default) / start over"),
         ensemble_size: Optional[int] = typer.Option(None, "--ensemble-size", help="cars per MuJoCo model per task"),
         quiet: bool = typer.Option(False, "--quiet", "-q", help="no progress bar"),
+        overwrite: bool = typer.Option(False, "--overwrite",
+                                       help="replace an existing --out folder that is not this sweep's batch folder"),
     ):
         """Run a sweep (grids, lists, random samples, Monte Carlo seeds) on local processes or Dask."""
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
@@ -34,8 +36,20 @@ def register(app: typer.Typer) -> None:
 
         if scheduler and dask_local:
             fail("give either --scheduler or --dask-local, not both")
+        if workers is not None and workers < 1:
+            fail(f"--workers must be >= 1 (got {workers})")
+        if dask_local is not None and dask_local < 1:
+            fail(f"--dask-local must be >= 1 (got {dask_local})")
+        if ensemble_size is not None and ensemble_size < 1:
+            fail(f"--ensemble-size must be >= 1 (got {ensemble_size})")
 
         def go():
+            from ..batch import load_sweep
+            from ..outdir import prepare
+
+            load_sweep(sweep)  # the sweep file's errors first (one line, naming it)
+            if out is not None:  # a batch resumes into its own folder; any other folder needs --overwrite
+                prepare(out, overwrite, allow_resume=_is_batch_folder(out, sweep) and not overwrite)
             with Progress(TextColumn("[bold]runs"), BarColumn(), MofNCompleteColumn(), TextColumn("•"),
                           TimeElapsedColumn(), TextColumn("eta"), TimeRemainingColumn(), console=err_console,
                           disable=quiet or not sys.stderr.isatty()) as prog:
@@ -62,8 +76,10 @@ def register(app: typer.Typer) -> None:
                         t.add_row(c[7:], f"{v.min():.4g}", f"{v.mean():.4g}", f"{v.max():.4g}")
                     console.print(t)
                 bad = df[df["status"] != "ok"]
+                from rich.markup import escape
+
                 for _, r in bad.head(5).iterrows():
-                    console.print(f"  [red]{r['status']}[/] run {r['run_id']}: {str(r['error'])[:160]}",
+                    console.print(f"  [red]{r['status']}[/] run {r['run_id']}: {escape(str(r['error'])[:160])}",
                                   highlight=False)
                 if len(bad) > 5:
                     console.print(f"  ... {len(bad) - 5} more failed runs (see the 'error' column)")
@@ -72,3 +88,20 @@ def register(app: typer.Typer) -> None:
                 raise typer.Exit(1)
 
         guarded(go)
+
+
+def _is_batch_folder(out: Path, sweep: Path) -> bool:
+    """``out`` holds a batch of the same sweep file (so running again resumes it)."""
+    import json
+
+    meta = Path(out) / "sweep.resolved.json"
+    if not meta.is_file():
+        return False
+    try:
+        src = json.loads(meta.read_text()).get("source")
+    except (ValueError, OSError):
+        return False
+    try:
+        return Path(src).resolve() == Path(sweep).resolve()
+    except (TypeError, OSError):
+        return False

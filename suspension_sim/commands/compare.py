@@ -15,6 +15,7 @@ def register(app: typer.Typer) -> None:
         out: Path = typer.Option(..., "--out", "-o", help="folder for report.html and viewer.html"),
         labels: Optional[str] = typer.Option(None, "--labels", help="comma-separated labels (default: scenario names)"),
         no_viewer: bool = typer.Option(False, "--no-viewer", help="no 3D view"),
+        overwrite: bool = typer.Option(False, "--overwrite", help="replace the results in an existing --out folder"),
     ):
         """Compare finished runs in one HTML report."""
         from ..cli import console, fail, guarded
@@ -24,9 +25,11 @@ def register(app: typer.Typer) -> None:
             fail(f"--labels: {len(labs)} labels for {len(run_dirs)} runs")
 
         def go():
+            from ..outdir import prepare
             from ..report import write_compare
 
+            prepare(out, overwrite)
             p = write_compare(run_dirs, out, labels=labs, viewer=not no_viewer)
-            console.print(f"comparison report: [bold]{p}[/]")
+            console.print(f"comparison report: {p}", markup=False, highlight=False)
 
         guarded(go)

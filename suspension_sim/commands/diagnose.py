@@ -9,11 +9,46 @@ from typing import List, Optional
 import typer
 
 
-def _rows(s: Optional[str]):
+def _rows(s: Optional[str], option: str = "--rows"):
+    """``a:b`` (0-based, b exclusive, either may be empty) -> (a, b); a one-line error otherwise."""
+    from ..errors import ScenarioError
+
     if not s:
         return None
-    a, _, b = s.partition(":")
-    return (int(a) if a else 0, int(b) if b else None)
+    a, sep, b = s.partition(":")
+    try:
+        out = (int(a) if a.strip() else 0, int(b) if b.strip() else None)
+    except ValueError:
+        raise ScenarioError(f"{option} expects rows a:b (whole numbers, e.g. 0:5000), got {s!r}") from None
+    if not sep:
+        raise ScenarioError(f"{option} expects rows a:b (e.g. 0:5000), got {s!r}")
+    if out[0] < 0 or (out[1] is not None and out[1] <= out[0]):
+        raise ScenarioError(f"{option} {s!r}: needs 0 <= a < b")
+    return out
+
+
+def _check_options(model: Path, split: float, fs, max_effects: int, candidates) -> None:
+    """The options' values, before any data is read (one-line errors naming the option)."""
+    import math
+
+    from ..errors import ScenarioError
+
+    if not (0.0 < split < 1.0):
+        raise ScenarioError(f"--split must be a fraction between 0 and 1 (got {split:g})")
+    if fs is not None and not (math.isfinite(fs) and fs > 0):
+        raise ScenarioError(f"--fs must be a sample rate > 0 in Hz (got {fs:g})")
+    if max_effects < 0:
+        raise ScenarioError(f"--max-effects must be >= 0 (got {max_effects})")
+    if candidates:
+        from ..diagnose.candidates import library
+        from ..diagnose.model import load_model
+
+        known = {c.name for c in library(load_model(str(model)).kind)} | {"parameter"}
+        names = [c.strip() for c in candidates.split(",") if c.strip()]
+        bad = [c for c in names if c not in known]
+        if bad or not names:
+            raise ScenarioError(f"--candidates: unknown name(s) {', '.join(map(repr, bad)) or '(none given)'} "
+                                f"(known: {', '.join(sorted(known))})")
 
 
 def register(app: typer.Typer) -> None:
@@ -37,6 +72,9 @@ def register(app: typer.Typer) -> None:
         resample: bool = typer.Option(False, "--resample", help="repair: resample a non-uniform time base"),
         demean: bool = typer.Option(False, "--demean", help="subtract the training record's channel means"),
         no_confirm: bool = typer.Option(False, "--no-confirm", help="skip the MuJoCo re-simulation of the fitted model"),
+        no_plausibility: bool = typer.Option(False, "--no-plausibility",
+                                             help="fit even when the units/scales look wrong for the model (warn only)"),
+        overwrite: bool = typer.Option(False, "--overwrite", help="replace the results in an existing --out folder"),
     ):
         """Diagnose a model against measured data: calibrate, locate, name the missing effect, refit, report."""
         from ..cli import console, fail, guarded
@@ -49,6 +87,11 @@ def register(app: typer.Typer) -> None:
             from ..diagnose.io import parse_map
             from ..errors import ScenarioError
 
+            from ..outdir import prepare
+
+            _check_options(model, split, fs, max_effects, candidates)
+            row_sel, test_row_sel = _rows(rows), _rows(test_rows, "--test-rows")
+            prepare(out, overwrite)
             floors = {}
             for f in floor or []:
                 k, _, v = f.partition("=")
@@ -56,13 +99,16 @@ def register(app: typer.Typer) -> None:
                     floors[k.strip()] = float(v)
                 except ValueError:
                     raise ScenarioError(f"--floor expects CHANNEL=value, got {f!r}") from None
+                if not (floors[k.strip()] > 0 and floors[k.strip()] < float("inf")):
+                    raise ScenarioError(f"--floor {f!r}: the floor must be a finite value > 0")
             rep = run([str(p) for p in data], str(model), out, mapping=parse_map(map_), fs=fs, split=split,
                       test=[str(p) for p in test] if test else None, floors=floors,
                       candidates=[c.strip() for c in candidates.split(",")] if candidates else None,
-                      max_effects=max_effects, rows=_rows(rows), test_rows=_rows(test_rows), nan=nan, sort=sort,
+                      max_effects=max_effects, rows=row_sel, test_rows=test_row_sel, nan=nan, sort=sort,
                       dedupe=dedupe, resample=resample, demean=demean, confirm=not no_confirm,
-                      log=lambda m: console.print(m, highlight=False))
-            console.print(f"[bold]{rep['verdict']}[/]")
-            console.print(f"report: [bold]{out / 'report.html'}[/]  model: [bold]{out / 'model.fitted.yaml'}[/]")
+                      plausibility=not no_plausibility, log=lambda m: console.print(m, highlight=False, markup=False))
+            console.print(str(rep['verdict']), style="bold", markup=False, highlight=False)
+            console.print(f"report: {out / 'report.html'}  model: {out / 'model.fitted.yaml'}", markup=False,
+                          highlight=False)
 
         guarded(go)

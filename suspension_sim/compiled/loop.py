@@ -687,7 +687,9 @@ def run_steps(sim, mode: str, progress=None):
     sensor_code = [(int(sens["field"][j]), bool(sens["delay"][j] == 0 and sens["hold"][j] == 1 and sens["std"][j] == 0
                                                 and sens["q"][j] == 0)) for j in range(ns)] if full else []
     mod = load_module(effects, actuator, controller, sensor_code)
-    n_log = sim.n_steps // sim.log_every
+    from ..simulation import n_log_samples
+
+    n_log = n_log_samples(sim.n_steps, sim.log_every)
     layout = _Layout(sim)
     y = np.zeros((n, max(ytot, 1)))
 

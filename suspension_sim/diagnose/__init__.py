@@ -19,11 +19,12 @@ from pathlib import Path
 def diagnose(data, model, out, *, mapping=None, fs=None, split: float = 0.7, test=None, floors=None,
              candidates=None, max_effects: int = 3, rows=None, test_rows=None, nan: str = "error", sort=False,
              dedupe=False, resample=False, confirm: bool = True, plots: bool = True, log=None,
-             screen_samples: int = 20000, test_skip=None, demean: bool = False) -> dict:
+             screen_samples: int = 20000, test_skip=None, demean: bool = False, plausibility: bool = True) -> dict:
     """Run the whole workflow; returns the report dict (also written to ``out/report.json``).
 
     ``data``/``test``: file path(s) or :class:`~.io.Record`; ``model``: MODEL.yaml path or dict;
-    ``floors``: {channel: noise/repeatability floor in channel units} overriding the estimate."""
+    ``floors``: {channel: noise/repeatability floor in channel units} overriding the estimate;
+    ``plausibility=False`` fits even when :mod:`.plausibility` suspects the units (warnings only)."""
     from .io import Record, load_record
     from .model import load_model
     from .report import build_report
@@ -39,6 +40,9 @@ def diagnose(data, model, out, *, mapping=None, fs=None, split: float = 0.7, tes
         trec = load_record(data, spec.kind, rows=test_rows, **kw)
     if demean:
         _demean(rec, trec)
+    from .plausibility import check as plausible  # units and scales against the model, before any fit
+
+    plausible(rec, spec, override=not plausibility, log=log)
     sel = Selector(rec, spec, split=split, test_record=trec, floors=floors, candidates=candidates,
                    max_effects=max_effects, log=log, screen_samples=screen_samples, test_skip=test_skip)
     D = sel.run()

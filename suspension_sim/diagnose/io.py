@@ -79,15 +79,18 @@ def parse_map(items: list[str] | None) -> dict[str, tuple[str, float]]:
             scale = float(sc) if sc else 1.0
         except ValueError:
             raise ScenarioError(f"--map {it!r}: scale {sc!r} is not a number") from None
+        if not (np.isfinite(scale) and scale != 0):
+            raise ScenarioError(f"--map {it!r}: the scale must be a finite number other than 0")
         out[src.strip()] = (name.strip(), scale)
     return out
 
 
 def read_table(path: str | Path) -> pd.DataFrame:
     """One data file as a DataFrame (columns as in the file)."""
+    from .plausibility import check_data_file
+
     p = Path(path)
-    if not p.exists():
-        raise ScenarioError("data file not found", source=str(path))
+    check_data_file(p)  # exists, a file, size limit, not binary
     suf = p.suffix.lower()
     try:
         if suf in (".parquet", ".pq"):
@@ -139,17 +142,19 @@ def load_record(paths, kind: str, mapping: dict[str, tuple[str, float]] | None =
         if s not in df.columns:
             raise ScenarioError(f"--map: no column/variable {s!r} in the data (has: {', '.join(map(str, df.columns))})",
                                 source=src)
+    from .plausibility import numeric_column  # a decimal comma or a word is named, not "missing values"
+
     chans: dict[str, np.ndarray] = {}
     tcol = None
     for col in df.columns:
         name, scale = mapping.get(col, (str(col), 1.0))
         if name == time_column or name == "time":
-            tcol = pd.to_numeric(df[col], errors="coerce").to_numpy(dtype=float) * scale
+            tcol = numeric_column(df[col], str(col), src) * scale
             continue
         if name in known:
             if name in chans:
                 raise ScenarioError(f"channel {name!r} given twice", source=src)
-            chans[name] = pd.to_numeric(df[col], errors="coerce").to_numpy(dtype=float) * scale
+            chans[name] = numeric_column(df[col], str(col), src) * scale
         elif col in mapping:
             raise ScenarioError(f"unknown channel name {name!r} for a {kind} (inputs: {', '.join(voc['inputs'])}; "
                                 f"outputs: {', '.join(voc['outputs'])})", source=src)

@@ -19,7 +19,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from ..errors import ScenarioError
 from . import fastsim as fs
@@ -129,13 +128,9 @@ def load_model(path_or_dict, source: str | None = None) -> ModelSpec:
     """Read MODEL.yaml (a vehicle block or a scenario with one) into a :class:`ModelSpec`."""
     if isinstance(path_or_dict, (str, Path)):
         source = str(path_or_dict)
-        p = Path(path_or_dict)
-        if not p.exists():
-            raise ScenarioError("model file not found", source=source)
-        try:
-            raw = yaml.safe_load(p.read_text())
-        except yaml.YAMLError as err:
-            raise ScenarioError(f"not valid YAML: {err}", source=source) from None
+        from ..safeyaml import load_file  # size/alias/depth limits, UTF-8, duplicate keys refused
+
+        raw = load_file(path_or_dict, "model file")
     else:
         raw = copy.deepcopy(path_or_dict)
     if not isinstance(raw, dict):

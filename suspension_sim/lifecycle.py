@@ -1,0 +1,81 @@
+"""Processes we start die with us: worker processes and servers never outlive the command that started them.
+
+- :func:`die_with_parent` (Linux): ``prctl(PR_SET_PDEATHSIG, SIGTERM)`` in a child process, so the kernel
+  sends it SIGTERM when its parent dies, whatever the cause (SIGKILL included); if the parent is already gone
+  when it is called, the child exits at once.  Used as the initializer of batch worker processes, as the
+  ``preexec_fn`` of the viewer server, and on Dask workers and nannies of a local cluster.
+- :func:`install_signal_handlers`: SIGTERM (and SIGHUP) in the main process raise ``SystemExit`` like Ctrl-C
+  raises ``KeyboardInterrupt``, so ``finally`` blocks and ``atexit`` handlers run (pools shut down, the
+  viewer server is terminated, partial batch results are flushed).
+"""
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import threading
+
+PR_SET_PDEATHSIG = 1
+
+
+def die_with_parent(sig: int = signal.SIGTERM, parent_pid: int | None = None) -> bool:
+    """Ask the kernel to send ``sig`` to this process when its parent dies (Linux); True if set.  With
+    ``parent_pid``, exit at once if the parent has already changed (it died before the call)."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        ok = libc.prctl(PR_SET_PDEATHSIG, int(sig), 0, 0, 0) == 0
+    except Exception:  # noqa: BLE001 - best effort
+        return False
+    if parent_pid is not None and os.getppid() != parent_pid:
+        os._exit(1)
+    return ok
+
+
+def child_preexec(parent_pid: int | None = None):
+    """A ``preexec_fn`` for :class:`subprocess.Popen`: the child dies with this process."""
+    pid = parent_pid if parent_pid is not None else os.getpid()
+
+    def fn():
+        die_with_parent(signal.SIGTERM, pid)
+
+    return fn
+
+
+def worker_initializer(parent_pid: int) -> None:
+    """Initializer of pool worker processes: SIGTERM kills (a forked worker inherits the parent's handler, which
+    would turn it into an exception the pool catches), SIGINT is ignored (the parent handles Ctrl-C), and the
+    worker dies with its parent."""
+    try:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except (ValueError, OSError):  # pragma: no cover
+        pass
+    die_with_parent(signal.SIGTERM, parent_pid)
+
+
+_INSTALLED = False
+
+
+def _raise_exit(signum, frame):  # pragma: no cover - exercised through subprocess tests
+    raise SystemExit(128 + signum)
+
+
+def install_signal_handlers() -> None:
+    """SIGTERM/SIGHUP raise SystemExit in the main thread (cleanup runs); once per process."""
+    global _INSTALLED
+    if _INSTALLED or threading.current_thread() is not threading.main_thread():
+        return
+    _INSTALLED = True
+    for name in ("SIGTERM", "SIGHUP"):
+        sig = getattr(signal, name, None)
+        if sig is None:
+            continue
+        try:
+            if signal.getsignal(sig) in (signal.SIG_DFL, None):
+                signal.signal(sig, _raise_exit)
+        except (ValueError, OSError):  # pragma: no cover
+            pass

@@ -1,0 +1,61 @@
+"""Everything ``run`` checks before the first step, callable without stepping (``validate`` runs it).
+
+:func:`build` validates a scenario file (with ``--set`` overrides), expands its variants and builds each
+variant's :class:`~suspension_sim.simulation.Simulation` (the MuJoCo model, every component, the roads): the
+checks that used to surface only in ``run`` (integrator limits, effects on a model without tires, manoeuvres
+on a quarter car, ...) then fail in ``validate`` too.  :func:`check_log_memory` refuses a run whose log would
+not fit (instants × channels × cars × 8 bytes, against the ``log_gb`` limit of :mod:`suspension_sim.limits`).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+from . import limits
+from .errors import ScenarioError
+
+
+def log_channels_estimate(sim) -> int:
+    """An upper estimate of the logged channels per car (body dofs × 3, ~16 per corner, sensors, signals)."""
+    P = sim.plant
+    n = 3 * len(P.body_joints) + 16 * P.nc + 8
+    for ch in getattr(sim, "sensors", []):
+        try:
+            n += max(1, len(ch.sensor.labels()))
+        except Exception:  # noqa: BLE001 - an estimate
+            n += P.nc
+    return n + 4 * P.nc
+
+
+def check_log_memory(sim, source: str | None = None) -> None:
+    from .simulation import n_log_samples
+
+    n_log = n_log_samples(sim.n_steps, sim.log_every)
+    gb = n_log * sim.plant.n * log_channels_estimate(sim) * 8 / 1e9
+    limits.check("log_gb", gb, source=source, field="sim.duration",
+                 what=f"the run's log ({n_log} instants; a larger sim.log_dt makes it smaller) in GB")
+
+
+def build(scenario: str | Path, overrides: list[str] | None = None):
+    """(scenario, [(variant name, Simulation), ...]) with every pre-run check done; nothing is stepped."""
+    from .config import load_scenario
+    from .simulation import Simulation
+
+    src = str(scenario)
+    sc = load_scenario(scenario, overrides or [])
+    sims = []
+    for vname, vsc in sc.expand(src):
+        try:
+            sim = Simulation([vsc], src)
+            check_log_memory(sim, src)
+        except ScenarioError as err:
+            if not sc.variants:
+                raise
+            head = ": ".join(str(x) for x in (err.source, err.field) if x)  # name the variant too
+            msg = str(err)[len(head) + 2:] if head and str(err).startswith(head + ": ") else str(err)
+            raise ScenarioError(msg, source=err.source or src,
+                                field=f"variants.{vname}:{err.field}" if err.field else f"variants.{vname}") from None
+        sims.append((vname, sim))
+    return sc, sims
+
+
+__all__ = ["build", "check_log_memory", "log_channels_estimate", "ScenarioError"]
