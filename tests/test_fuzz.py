@@ -24,7 +24,6 @@ BASE = {
     "controller": {"type": "skyhook", "params": {"c_sky": 2000.0}},
     "sim": {"duration": 0.05},
     "outputs": {"plots": False},
-    "variants": {"passive": {"controller": {"type": "passive"}}, "sky": {}},
 }
 
 
@@ -124,20 +123,17 @@ SCENARIO_FILES = [
     ("variation_unknown_param", _scenario("vehicle.variations", [{"param": "colour", "values": [1], "times": [0]}]),
      "vehicle.variations.0.param", "unknown vehicle parameter"),
     ("variants_not_mapping", _scenario("variants", [1, 2]), "variants", ""),
-    ("variant_bad_value", _scenario("variants.sky", {"sim": {"dt": -1}}), "variants.sky:sim.dt", "greater than 0"),
+    ("variant_bad_value", _scenario("variants", {"ok": {}, "sky": {"sim": {"dt": -1}}}), "variants.sky:sim.dt",
+     "greater than 0"),
     # checks that used to surface only in `run` (validate now builds every variant's model)
-    ("trapezoidal_sdof", _scenario("vehicle.model", "sdof").replace("sine", "sine") +
-     "", "vehicle", ""),
     ("tire_effect_without_tire", yaml.safe_dump({**BASE, "vehicle": {"model": "sdof", "effects": [
-        {"type": "tire_liftoff"}]}, "sensors": [], "controller": {"type": "passive"}, "variants": {}}),
+        {"type": "tire_liftoff"}]}, "sensors": [], "controller": {"type": "passive"}}),
      "vehicle.effects.0.type", "has none"),
     ("trapezoidal_no_tire", yaml.safe_dump({**BASE, "vehicle": {"model": "sdof"}, "sensors": [],
-                                            "controller": {"type": "passive"}, "variants": {},
+                                            "controller": {"type": "passive"},
                                             "sim": {"duration": 0.05, "integrator": "trapezoidal"}}),
      "sim.integrator", "needs a model with tires"),
 ]
-# the sdof placeholder above is not a case of its own
-SCENARIO_FILES = [c for c in SCENARIO_FILES if c[0] != "trapezoidal_sdof"]
 
 SET_VALUES = [
     ("set_no_equals", ["novalue"], None, "expects path.to.key=value"),
@@ -338,7 +334,7 @@ def test_bad_set(tmp_path, case):
 @pytest.mark.parametrize("case", SWEEPS, ids=[c[0] for c in SWEEPS])
 def test_bad_sweep(tmp_path, case):
     name, text, field, msg = case
-    (tmp_path / "scenario.yaml").write_text(yaml.safe_dump({k: v for k, v in BASE.items() if k != "variants"}))
+    (tmp_path / "scenario.yaml").write_text(yaml.safe_dump(BASE))
     p = tmp_path / "sweep.yaml"
     p.write_text(text)
     t0 = time.perf_counter()
