@@ -22,6 +22,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from suspension_sim.components import NoParams
+from suspension_sim.errors import ScenarioError
 from suspension_sim.kernels import broadcast_controller, call, f64
 
 
@@ -57,19 +58,35 @@ class ControlContext:
             out.update(self.state_widths)
         return out
 
+    def reading_slices(self) -> dict[str, tuple[int, int]]:
+        """{reading name: (start, stop)} in a kernel's reading vector y (:meth:`reading_layout`), computed once."""
+        key = (tuple(self.sensors), self.full_state, tuple(self.state_widths))
+        cached = self.__dict__.get("_slices")
+        if cached is None or cached[0] != key:
+            out, start = {}, 0
+            for name, width in self.reading_layout().items():
+                out[name] = (start, start + width)
+                start += width
+            cached = self.__dict__["_slices"] = (key, out)
+        return cached[1]
+
     def sensor_slice(self, name: str) -> tuple[int, int]:
         """(start, stop) of reading ``name`` in a kernel's reading vector y (:meth:`reading_layout`); a name
         the scenario does not declare is read from the true state ``state.<name>`` when ``full_state`` is set;
         KeyError otherwise."""
-        layout = self.reading_layout()
-        if name not in layout and self.full_state and f"state.{name}" in layout:
+        sl = self.reading_slices()
+        if name not in sl and self.full_state and f"state.{name}" in sl:
             name = f"state.{name}"
-        start = 0
-        for sname, width in layout.items():
-            if sname == name:
-                return start, start + width
-            start += width
-        raise KeyError(name)
+        return sl[name]
+
+    def reading_start(self, name: str) -> int:
+        """Start of reading ``name`` in a kernel's reading vector y (:meth:`sensor_slice`), for a kernel's
+        parameter row; a reading neither declared nor in the full state is a one-line scenario error."""
+        try:
+            return self.sensor_slice(name)[0]
+        except KeyError:
+            raise ScenarioError(f"the controller reads {name!r}: declare a sensor of that name (or set "
+                                f"controller.full_state)", field="sensors") from None
 
 
 class Controller:
@@ -125,11 +142,17 @@ class Controller:
 
     def readings(self, y: dict[str, np.ndarray]) -> np.ndarray:
         """The readings ``y`` (name -> (n_cars, k)) as the kernel's reading matrix (n_cars, sum of widths), in
-        the order of :meth:`ControlContext.reading_layout`."""
+        the order of :meth:`ControlContext.reading_layout` (one buffer, refilled at each call)."""
+        sl = self.ctx.reading_slices()
+        buf = self.__dict__.get("_ybuf")
+        if buf is None or buf[0] is not sl:
+            width = max((b for _, b in sl.values()), default=0)
+            buf = self._ybuf = (sl, np.zeros((self.ctx.n_cars, width)))
+        out = buf[1]
         n = self.ctx.n_cars
-        cols = [np.broadcast_to(np.asarray(y[name], dtype=np.float64).reshape(n, -1), (n, w))
-                for name, w in self.ctx.reading_layout().items()]
-        return np.ascontiguousarray(np.concatenate(cols, axis=1)) if cols else np.zeros((n, 0))
+        for name, (a, b) in sl.items():
+            out[:, a:b] = np.reshape(y[name], (n, -1))
+        return out
 
     def step(self, t: float, y: dict[str, np.ndarray]) -> np.ndarray:
         """One control step for every car: the kernel broadcast over the ensemble; returns (n_cars, n_corners)."""
@@ -149,3 +172,19 @@ class Controller:
 
     def zeros(self) -> np.ndarray:
         return np.zeros((self.ctx.n_cars, self.ctx.n_corners))
+
+    def per_car(self, v) -> np.ndarray:
+        """A parameter stacked over the ensemble (a value, or one per car) as floats (n_cars,), for a column of
+        the kernel's parameter rows."""
+        return np.broadcast_to(np.asarray(v, dtype=float).reshape(-1), (self.ctx.n_cars,))
+
+
+def block_offsets(start: int, blocks) -> dict[str, int]:
+    """{name: offset} of consecutive blocks ``(name, width)`` of a kernel's state row from ``start``, and
+    ``"_next"``: the offset after the last."""
+    out = {}
+    for name, width in blocks:
+        out[name] = start
+        start += width
+    out["_next"] = start
+    return out

@@ -63,10 +63,8 @@ Signals logged (``ctrl.<name>.<corner index>``): the estimates ``zs_hat``, ``vs_
 (Δ̇ estimate) and the switching function ``s``; the truth is in the run log (``body_z``, ``pitch``, ``roll``
 and their rates, ``travel_rate``).
 
-Compiled kernel (``_kernel``, see :mod:`suspension_sim.compiled`): the estimation and the law of ``step`` for
-one car; the integrators and moving means are bit-identical, the differentiator (numpy: tensordot = BLAS),
-the switching function (einsum) and the sigmoid's exp may differ from numpy's in the last bit
-(tests/test_kernels_controllers.py).
+The estimation and the law are written once, as the numba function ``_kernel`` (one car); the compiled loop
+inlines it and the base class runs it over the ensemble in the Python loop.
 """
 from __future__ import annotations
 
@@ -80,7 +78,7 @@ from suspension_sim.components import Params
 from suspension_sim.errors import ScenarioError
 from suspension_sim.registry import CONTROLLERS
 
-from .base import Controller
+from .base import Controller, block_offsets
 
 G = 9.81
 HYBRID_COEFS = np.array([16.0, 1.0, -10.0, -10.0, -6.0, 9.0]) / 28.0  # Eq. (19), reconstructed
@@ -219,7 +217,7 @@ def corner_quarter_cars(ctx, p) -> dict[str, np.ndarray]:
     return out
 
 
-# compiled kernel --------------------------------------------------------------------------------------------
+# the law ---------------------------------------------------------------------------------------------------
 (_P_DT, _P_NW, _P_PMR, _P_A, _P_C, _P_FMAX, _P_OACC, _P_OPITCH, _P_OROLL, _P_OTRAV) = range(10)
 _NP = 10  # then per corner: K (4), corner x, corner y
 (_S_K, _S_VINT, _S_APREV, _S_SUMV) = range(4)
@@ -228,8 +226,9 @@ _NS = 4  # then blocks of n_corners: hist (6), z_int, sum_z, zs, vs, dv, s, F; t
 
 @numba.njit(cache=True)
 def _kernel(t, y, p, st, u):
-    """Compiled ``Fallah.step`` for one car.  The same operations as the numpy law, except the order of the
-    additions in the differentiator (numpy: tensordot, i.e. BLAS) and in the switching function (einsum)."""
+    """Estimation (Section 4) and control (17)-(18) for one car: the hybrid differentiator (19) on the LVDT
+    history, the trapezoidal integrals of the heave acceleration and of the corner velocities (21)-(23) with
+    the moving-mean removal, the switching function s = K·x and the sigmoid F = −f_max·(2/(1 + e^(−(a·s + c))) − 1)."""
     nc = u.shape[0]
     dt = p[_P_DT]
     nw = int(p[_P_NW])
@@ -364,155 +363,35 @@ class Fallah(Controller):
                 # F = −f = f_max·sgn(g·x) = −f_max·sgn(s)
                 self.K[i, c] = -g / abs(g[1])
 
-    # -- estimation ---------------------------------------------------------------------------------------
     def reset(self):
-        n, nc = self.ctx.n_cars, self.ctx.n_corners
-        dt = self.ctx.control_dt
-        self.dt = dt
-        self.nw = max(1, int(round(self._scalar("mean_window") / dt)))
-        self.k = 0
-        self.hist = np.zeros((6, n, nc))  # Δ(t − iΔt), i = 0..5
-        self.v_int = np.zeros((n, 1))  # integrated c.g. heave acceleration
-        self.a_prev = None
-        self.z_int = np.zeros((n, nc))  # integrated corner velocity
-        # moving-window sums for the mean removal
-        self.buf_v = np.zeros((self.nw, n, 1))
-        self.buf_z = np.zeros((self.nw, n, nc))
-        self.sum_v = np.zeros((n, 1))
-        self.sum_z = np.zeros((n, nc))
-        self.zs = np.zeros((n, nc))
-        self.vs = np.zeros((n, nc))
-        self.dv = np.zeros((n, nc))
-        self.s = np.zeros((n, nc))
-        self.F = np.zeros((n, nc))
-        x = np.asarray(self.ctx.corner_x, dtype=float).reshape(1, -1)
-        y = np.asarray(self.ctx.corner_y, dtype=float).reshape(1, -1)
-        self.cx, self.cy = x, y
+        super().reset()
+        self.nw = max(1, int(round(self._scalar("mean_window") / self.ctx.control_dt)))
 
-    def _window(self, buf, total, value):
-        """Push value, return the mean over the last nw samples (fewer at the start)."""
-        j = self.k % self.nw
-        total += value - buf[j]
-        buf[j] = value
-        return total / min(self.k + 1, self.nw)
-
-    def estimate(self, y):
-        p = self.p
-        travel = np.asarray(y[p.travel_sensor], dtype=float)
-        acc = np.asarray(y[p.acc_sensor], dtype=float)[:, :1]
-        labels = self.ctx.sensors.get(p.gyro_sensor, []) if p.gyro_sensor else []
-        rates = np.asarray(y[p.gyro_sensor], dtype=float) if p.gyro_sensor else np.zeros((travel.shape[0], 0))
-        pitch_rate = rates[:, [labels.index("pitch")]] if "pitch" in labels else 0.0
-        roll_rate = rates[:, [labels.index("roll")]] if "roll" in labels else 0.0
-        # suspension velocity: hybrid smooth differentiator (19) on the LVDT history
-        self.hist = np.roll(self.hist, 1, axis=0)
-        self.hist[0] = travel
-        if self.k == 0:
-            self.hist[1:] = travel  # start from rest
-        self.dv = np.tensordot(HYBRID_COEFS, self.hist, axes=1) / self.dt
-        # c.g. heave velocity: trapezoidal integration of the accelerometer, moving-mean removal
-        if self.a_prev is not None:
-            self.v_int = self.v_int + 0.5 * (acc + self.a_prev) * self.dt
-        self.a_prev = acc
-        v_cg = self.v_int - self._window(self.buf_v, self.sum_v, self.v_int)
-        # corners, (21)-(23): ż = ż_cg + y·φ̇ − x·θ̇
-        vs = v_cg + self.cy * roll_rate - self.cx * pitch_rate
-        self.z_int = self.z_int + 0.5 * (vs + self.vs) * self.dt if self.k > 0 else self.z_int
-        self.vs = vs
-        pmr = self._pmr()
-        if np.all(pmr):
-            self.zs = self.z_int - self._window(self.buf_z, self.sum_z, self.z_int)
-        elif np.any(pmr):  # the flag differs across the ensemble
-            self.zs = np.where(pmr, self.z_int - self._window(self.buf_z, self.sum_z, self.z_int), self.z_int)
-        else:
-            self.zs = self.z_int.copy()
-        self.k += 1
-        return np.stack([self.zs, self.vs, travel, self.dv], axis=-1)  # (n, nc, 4)
-
-    def _pmr(self):
-        """(n_cars, 1) bools: position_mean_removal per car."""
-        v = self.p.position_mean_removal
-        return np.asarray(v if isinstance(v, list) else [v] * self.ctx.n_cars, dtype=bool).reshape(-1, 1)
-
-    def step(self, t, y):
-        x = self.estimate(y)
-        self.s = np.einsum("ncj,ncj->nc", self.K, x)
-        a, c, fmax = self.p.a, self.p.c, self.p.f_max
-        sig = 2.0 / (1.0 + np.exp(-np.clip(a * self.s + c, -500, 500))) - 1.0
-        self.F = -fmax * sig
-        return self.F
-
-    def signals(self):
-        return {"zs_hat": self.zs, "vs_hat": self.vs, "dv_hat": self.dv, "s": self.s}
-
-    # -- compiled kernel ------------------------------------------------------------------------------------
     def _kernel_layout(self):
-        nc, o, k = self.ctx.n_corners, {}, _NS
-        for name, w in (("hist", 6 * nc), ("z_int", nc), ("sum_z", nc), ("zs", nc), ("vs", nc), ("dv", nc),
-                        ("s", nc), ("F", nc), ("buf_v", self.nw), ("buf_z", self.nw * nc)):
-            o[name] = k
-            k += w
-        o["_next"] = k
-        return o
+        """Offsets of the kernel's state blocks (after the _NS scalars); must match _kernel."""
+        nc = self.ctx.n_corners
+        return block_offsets(_NS, (("hist", 6 * nc), ("z_int", nc), ("sum_z", nc), ("zs", nc), ("vs", nc),
+                                   ("dv", nc), ("s", nc), ("F", nc), ("buf_v", self.nw), ("buf_z", self.nw * nc)))
 
     def kernel_data(self):
-        n, nc, p = self.ctx.n_cars, self.ctx.n_corners, self.p
-
-        def col(v):
-            return np.broadcast_to(np.asarray(v, dtype=float).reshape(-1), (n,))
-
-        def start(name):
-            try:
-                return self.ctx.sensor_slice(name)[0]
-            except KeyError:
-                raise NotImplementedError(f"fallah kernel needs the declared sensor {name!r}") from None
-
+        n, nc, p, col = self.ctx.n_cars, self.ctx.n_corners, self.p, self.per_car
+        start = self.ctx.reading_start
         P = np.zeros((n, _NP + 6 * nc))
-        P[:, _P_DT], P[:, _P_NW] = self.dt, self.nw
-        P[:, _P_PMR] = self._pmr()[:, 0]
+        P[:, _P_DT], P[:, _P_NW] = self.ctx.control_dt, self.nw
+        P[:, _P_PMR] = col(p.position_mean_removal)  # may differ per car
         P[:, _P_A], P[:, _P_C], P[:, _P_FMAX] = col(p.a), col(p.c), col(p.f_max)
-        P[:, _P_OACC] = start(p.acc_sensor)
+        P[:, _P_OACC] = start(p.acc_sensor)  # its first component: heave
         labels = self.ctx.sensors.get(p.gyro_sensor, []) if p.gyro_sensor else []
         g0 = start(p.gyro_sensor) if p.gyro_sensor else 0
         P[:, _P_OPITCH] = g0 + labels.index("pitch") if "pitch" in labels else -1.0
         P[:, _P_OROLL] = g0 + labels.index("roll") if "roll" in labels else -1.0
         P[:, _P_OTRAV] = start(p.travel_sensor)
-        pc = np.concatenate([self.K, np.broadcast_to(self.cx[..., None], (n, nc, 1)),
-                             np.broadcast_to(self.cy[..., None], (n, nc, 1))], axis=-1)
-        P[:, _NP:] = pc.reshape(n, -1)
-        o = self._kernel_layout()
-        S = np.zeros((n, o["_next"]))
-        S[:, _S_K] = self.k
-        S[:, _S_VINT] = self.v_int[:, 0]
-        if self.a_prev is not None:
-            S[:, _S_APREV] = self.a_prev[:, 0]
-        S[:, _S_SUMV] = self.sum_v[:, 0]
-        S[:, o["hist"]:o["hist"] + 6 * nc] = self.hist.transpose(1, 0, 2).reshape(n, -1)
-        for name, v in (("z_int", self.z_int), ("sum_z", self.sum_z), ("zs", self.zs), ("vs", self.vs),
-                        ("dv", self.dv), ("s", self.s), ("F", self.F)):
-            S[:, o[name]:o[name] + nc] = v
-        S[:, o["buf_v"]:o["buf_v"] + self.nw] = self.buf_v[:, :, 0].T
-        S[:, o["buf_z"]:o["buf_z"] + self.nw * nc] = self.buf_z.transpose(1, 0, 2).reshape(n, -1)
-        return np.ascontiguousarray(P), S
+        cx = np.broadcast_to(np.asarray(self.ctx.corner_x, dtype=float).reshape(1, nc, 1), (n, nc, 1))
+        cy = np.broadcast_to(np.asarray(self.ctx.corner_y, dtype=float).reshape(1, nc, 1), (n, nc, 1))
+        P[:, _NP:] = np.concatenate([self.K, cx, cy], axis=-1).reshape(n, -1)
+        return P, np.zeros((n, self._kernel_layout()["_next"]))
 
     def kernel_signals(self):
         o, nc = self._kernel_layout(), self.ctx.n_corners
         return {"zs_hat": (o["zs"], o["zs"] + nc), "vs_hat": (o["vs"], o["vs"] + nc),
                 "dv_hat": (o["dv"], o["dv"] + nc), "s": (o["s"], o["s"] + nc)}
-
-    def kernel_sync(self, st):
-        n, nc, nw = self.ctx.n_cars, self.ctx.n_corners, self.nw
-        o = self._kernel_layout()
-
-        def blk(name, w=nc):
-            return np.array(st[:, o[name]:o[name] + w])
-
-        self.k = int(st[0, _S_K])
-        self.v_int = np.array(st[:, _S_VINT:_S_VINT + 1])
-        self.a_prev = np.array(st[:, _S_APREV:_S_APREV + 1]) if self.k > 0 else None
-        self.sum_v = np.array(st[:, _S_SUMV:_S_SUMV + 1])
-        self.hist = blk("hist", 6 * nc).reshape(n, 6, nc).transpose(1, 0, 2).copy()
-        self.z_int, self.sum_z, self.zs, self.vs = blk("z_int"), blk("sum_z"), blk("zs"), blk("vs")
-        self.dv, self.s, self.F = blk("dv"), blk("s"), blk("F")
-        self.buf_v = blk("buf_v", nw).T.reshape(nw, n, 1).copy()
-        self.buf_z = blk("buf_z", nw * nc).reshape(n, nw, nc).transpose(1, 0, 2).copy()

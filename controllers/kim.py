@@ -53,8 +53,9 @@ parameter, normalised: ``d(θ̂_i/θ_i0)/dt = −gain_i·(θ_i0·Y_i)·p_e``, θ
 with θ2·Y2 ~ 1e6 N/s the (p_e, θ̃) loop then has its slow pole near gain·(θ_i0·Y_i)²/α1), the initial
 estimates (Table 1 by default: the paper's simulations give no initial error) and the ĝ floor.
 
-Compiled kernel (``_kernel``, see :mod:`suspension_sim.compiled`): ``step`` for one car with the same
-floating-point operations in the same order, bit-identical (tests/test_kernels_controllers.py).
+The law is written once, as the numba function ``_kernel`` (one car): the compiled loop inlines it and the
+base class runs it over the ensemble in the Python loop (tests/test_kernels_controllers.py checks it against
+the equations above).
 """
 from __future__ import annotations
 
@@ -96,24 +97,20 @@ class KimParams(Params):
     spool_sensor: str = Field("spool_position", description="name of the spool-position sensor (m)")
 
 
-def _flag(v, n):
-    return np.asarray(v if isinstance(v, (list, tuple)) else [v] * n, dtype=float).reshape(n, 1)
-
-
-# compiled kernel --------------------------------------------------------------------------------------------
-(_P_CSKY, _P_BS, _P_KD, _P_FD, _P_ANYFD, _P_ALPHA1, _P_KPF, _P_AREA, _P_PS, _P_G1, _P_G2, _P_G3, _P_ADAPT,
- _P_ANYADAPT, _P_GMIN, _P_RP, _P_ANYRP, _P_TC, _P_OX, _P_OS, _P_OVREL, _P_OVB, _P_OXV, _P_OAB, _P_OAW) = range(25)
-_NP = 25
+# parameter row
+(_P_CSKY, _P_BS, _P_KD, _P_FD, _P_ALPHA1, _P_KPF, _P_AREA, _P_PS, _P_G1, _P_G2, _P_G3, _P_ADAPT, _P_GMIN, _P_RP,
+ _P_TC, _P_OX, _P_OS, _P_OVREL, _P_OVB, _P_OXV, _P_OAB, _P_OAW) = range(22)
+_NP = 22
 # state row: [has_prev] then blocks of n_corners
 _S_BLOCKS = ("x_hat", "s_prev", "Y3_prev", "F_d", "F_a", "force_error", "p_e", "u_s", "a1_hat", "a2_hat",
-             "a3_hat", "u")
+             "a3_hat")
 _SB = {name: k for k, name in enumerate(_S_BLOCKS)}
-
 
 
 @numba.njit(cache=True)
 def _kernel(t, y, p, st, u):
-    """Compiled ``Kim.step`` for one car (same operations in the same order as the numpy law)."""
+    """The law for one car: desired force (5), outer loop (18)/(33), slow control (17), composite control (7);
+    then the estimator (22)-(23) and the adaptation (27) over the interval that has just ended."""
     nc = u.shape[0]
     c_sky, b_s, k_d, area = p[_P_CSKY], p[_P_BS], p[_P_KD], p[_P_AREA]
     Tc = p[_P_TC]
@@ -125,16 +122,17 @@ def _kernel(t, y, p, st, u):
         XV = y[int(p[_P_OXV]) + c]
         if not has_prev:
             st[1 + 0 * nc + c] = x  # x_hat starts at the measured force
-        xd = -c_sky * vb - b_s * vrel
+        xd = -c_sky * vb - b_s * vrel  # (5), with the dissipative sign of the damping term (module docstring)
         xe = x - xd
-        v = -k_d * xe
-        if p[_P_ANYFD] != 0.0:
+        v = -k_d * xe  # (33)
+        if p[_P_FD] != 0.0:  # (18): + dx_d/dt from the accelerometers
             ab = y[int(p[_P_OAB]) + c]
             aw = y[int(p[_P_OAW]) + c]
-            v = v + p[_P_FD] * (-c_sky * ab - b_s * (ab - aw))
+            v = v + (-c_sky * ab - b_s * (ab - aw))
+        # feedback-linearising slow control (17) with the current estimates
         Y1 = x
         Y2 = area * vrel
-        if p[_P_ANYRP] != 0.0:
+        if p[_P_RP] > 0.0:  # deflection rate predicted T ahead (not in the paper)
             Y2 = area * (vrel + p[_P_RP] * (y[int(p[_P_OAB]) + c] - y[int(p[_P_OAW]) + c]))
         sq = np.sqrt(np.abs(p[_P_PS] - sign(XV) * x / area))
         th1 = -st[1 + 8 * nc + c]
@@ -143,9 +141,12 @@ def _kernel(t, y, p, st, u):
         f_hat = th1 * Y1 + th2 * Y2
         g = th3 * sq
         g_min = p[_P_GMIN]
-        g_hat = g if (g >= g_min or g != g) else g_min  # np.maximum (nan propagates)
+        g_hat = g if (g >= g_min or g != g) else g_min  # ĝ floor (a NaN passes)
         us = (v - f_hat) / g_hat
-        uc = (1.0 + p[_P_KPF]) * us - p[_P_KPF] * XV
+        uc = (1.0 + p[_P_KPF]) * us - p[_P_KPF] * XV  # (7)
+        # estimator (22)-(23) and adaptation law (27) over the control interval that has just ended: the
+        # hydraulic-spring part θ2·A_p·(ẋ2 − ẋ1) exactly, as θ2·A_p·Δ(travel)/Tc from the deflection sensor; the
+        # other terms by the rectangle rule with the previous step's values
         s_now = y[int(p[_P_OS]) + c]
         x_hat = st[1 + 0 * nc + c]
         if has_prev:
@@ -154,16 +155,15 @@ def _kernel(t, y, p, st, u):
             Y3p = st[1 + 2 * nc + c]
             pe0 = st[1 + 6 * nc + c]
             Y1p = x0
-            Y2i = area * (s_now - s0) / Tc
+            Y2i = area * (s_now - s0) / Tc  # mean A_p·(ẋ2 − ẋ1) over the interval
             xhat_dot = -p[_P_ALPHA1] * pe0 + th1 * Y1p + th2 * Y2i + th3 * Y3p
-            if p[_P_ANYADAPT] != 0.0:
-                ad = p[_P_ADAPT]
+            if p[_P_ADAPT] != 0.0:  # dθ̂_i/dt = −gain_i·θ_i0·(θ_i0·Y_i)·p_e (normalised gains)
                 sc = -A1
-                th1 = th1 - ad * Tc * p[_P_G1] * sc * (sc * Y1p) * pe0
+                th1 = th1 - Tc * p[_P_G1] * sc * (sc * Y1p) * pe0
                 sc = -A2
-                th2 = th2 - ad * Tc * p[_P_G2] * sc * (sc * Y2i) * pe0
+                th2 = th2 - Tc * p[_P_G2] * sc * (sc * Y2i) * pe0
                 sc = A3
-                th3 = th3 - ad * Tc * p[_P_G3] * sc * (sc * Y3p) * pe0
+                th3 = th3 - Tc * p[_P_G3] * sc * (sc * Y3p) * pe0
                 st[1 + 8 * nc + c] = -th1
                 st[1 + 9 * nc + c] = -th2
                 st[1 + 10 * nc + c] = th3
@@ -177,7 +177,6 @@ def _kernel(t, y, p, st, u):
         st[1 + 5 * nc + c] = xe
         st[1 + 6 * nc + c] = pe
         st[1 + 7 * nc + c] = us
-        st[1 + 11 * nc + c] = uc
         u[c] = uc
     st[0] = 1.0
 
@@ -198,153 +197,39 @@ class Kim(Controller):
             req += ["corner_body_acc", "wheel_acc"]
         return req
 
-    def reset(self):
-        n, c = self.ctx.n_cars, self.ctx.n_corners
-        p = self.p
-        sh = (n, c)
-        self.theta0 = [np.broadcast_to(-np.asarray(p.a1, float), sh).copy(),
-                       np.broadcast_to(-np.asarray(p.a2, float), sh).copy(),
-                       np.broadcast_to(np.asarray(p.a3, float), sh).copy()]
-        self.theta = [t.copy() for t in self.theta0]
-        self.scale = [-A1, -A2, A3]  # Table 1 values: normalisation of the adaptation gains
-        self.x_hat = None
-        # flags may differ across an ensemble (stacked as lists): 0/1 arrays (n_cars, 1)
-        self.fd_dot = _flag(p.use_fd_dot, n)
-        self.adaptive = _flag(p.adaptive, n)
-        self._prev = None
-        self.pe = np.zeros(sh)
-        self.xd = np.zeros(sh)
-        self.xe = np.zeros(sh)
-        self.us = np.zeros(sh)
-        self.u = np.zeros(sh)
-        self.x = np.zeros(sh)
-
-    def _get(self, y, name):
-        if isinstance(name, list):  # a string parameter that differs across the ensemble: one name per car
-            return np.stack([self._get(y, nm)[i] for i, nm in enumerate(name)])
-        return y[name] if name in y else y[f"state.{name}"]
-
-    def step(self, t, y):
-        p = self.p
-        Tc = self.ctx.control_dt
-        x = self._get(y, p.force_sensor)
-        vrel = self._get(y, "travel_rate")
-        vb = self._get(y, "corner_body_vel")
-        XV = self._get(y, p.spool_sensor)
-        if self.x_hat is None:
-            self.x_hat = np.array(x, dtype=float, copy=True)
-
-        # desired force (5) and outer loop (18) / (33)
-        xd = -p.c_sky * vb - p.b_s * vrel  # (5), with the dissipative sign of the damping term (see above)
-        xe = x - xd
-        v = -p.k_d * xe
-        if np.any(self.fd_dot):
-            ab = self._get(y, "corner_body_acc")
-            aw = self._get(y, "wheel_acc")
-            v = v + self.fd_dot * (-p.c_sky * ab - p.b_s * (ab - aw))
-
-        # feedback-linearising slow control (17) with the current estimates
-        Y1 = x
-        Y2 = p.area * vrel
-        if np.any(p.rate_prediction > 0):
-            Y2 = p.area * (vrel + p.rate_prediction * (self._get(y, "corner_body_acc") - self._get(y, "wheel_acc")))
-        sq = np.sqrt(np.abs(p.supply_pressure - np.sign(XV) * x / p.area))
-        th1, th2, th3 = self.theta
-        f_hat = th1 * Y1 + th2 * Y2
-        g_min = p.g_min_fraction * A3 * np.sqrt(p.supply_pressure)
-        g_hat = np.maximum(th3 * sq, g_min)
-        us = (v - f_hat) / g_hat
-        u = (1.0 + p.k_pf) * us - p.k_pf * XV  # (7)
-
-        # estimator (22)-(23) and adaptation law (27), integrated over the control interval that has just
-        # ended.  The hydraulic-spring part θ2·A_p·(ẋ2 − ẋ1) is integrated exactly as θ2·A_p·Δ(travel) from
-        # the deflection sensor (a rectangle rule on it is off by (Tc/2)·a2·A_p·(ẍ2 − ẍ1), several hundred N
-        # at this plant's force rates); the other terms by the rectangle rule with the previous step's values.
-        s_now = self._get(y, "travel")
-        if self._prev is not None:
-            x0, s0, Y1p, Y3p, pe0 = self._prev
-            Y2 = p.area * (s_now - s0) / Tc  # mean A_p·(ẋ2 − ẋ1) over the interval
-            th1, th2, th3 = self.theta
-            xhat_dot = -p.alpha1 * pe0 + th1 * Y1p + th2 * Y2 + th3 * Y3p
-            if np.any(self.adaptive):
-                gains = (p.gain_a1, p.gain_a2, p.gain_a3)
-                for i, Yi in enumerate((Y1p, Y2, Y3p)):
-                    sc = self.scale[i]
-                    self.theta[i] = self.theta[i] - self.adaptive * Tc * gains[i] * sc * (sc * Yi) * pe0
-            self.x_hat = self.x_hat + Tc * xhat_dot
-        pe = self.x_hat - x
-        self._prev = (x, s_now, Y1, sq * us, pe)
-
-        self.pe, self.xd, self.xe, self.us, self.u, self.x = pe, xd, xe, us, u, x
-        return u
-
-    def signals(self):
-        return {
-            "F_d": self.xd, "F_a": self.x, "force_error": self.xe, "p_e": self.pe, "u_s": self.us,
-            "a1_hat": -self.theta[0], "a2_hat": -self.theta[1], "a3_hat": self.theta[2],
-        }
-
-    # compiled kernel ------------------------------------------------------------------------------------
-    def _offsets(self, name):
-        """Per-car start of sensor ``name`` (one name, or one per car) in the kernel's reading vector."""
-        n = self.ctx.n_cars
-        names = name if isinstance(name, list) else [name] * n
-        try:
-            return np.array([self.ctx.sensor_slice(nm)[0] for nm in names], dtype=float)
-        except KeyError as err:  # read from the full plant state (controller.full_state): not in y
-            raise NotImplementedError(f"kim kernel needs the declared sensor {err.args[0]!r}") from None
+    def _starts(self, name):
+        """Per-car start of reading ``name`` (one name, or one per car) in the kernel's reading vector."""
+        names = name if isinstance(name, list) else [name] * self.ctx.n_cars
+        return [self.ctx.reading_start(nm) for nm in names]
 
     def kernel_data(self):
-        n, nc, p = self.ctx.n_cars, self.ctx.n_corners, self.p
-
-        def col(v):
-            return np.broadcast_to(np.asarray(v, dtype=float).reshape(-1), (n,))
+        n, nc, p, col = self.ctx.n_cars, self.ctx.n_corners, self.p, self.per_car
 
         P = np.zeros((n, _NP))
         P[:, _P_CSKY], P[:, _P_BS], P[:, _P_KD] = col(p.c_sky), col(p.b_s), col(p.k_d)
-        P[:, _P_FD] = self.fd_dot[:, 0]
-        P[:, _P_ANYFD] = float(np.any(self.fd_dot))
+        P[:, _P_FD] = col(p.use_fd_dot)  # flags may differ across an ensemble
         P[:, _P_ALPHA1], P[:, _P_KPF] = col(p.alpha1), col(p.k_pf)
         P[:, _P_AREA], P[:, _P_PS] = col(p.area), col(p.supply_pressure)
         P[:, _P_G1], P[:, _P_G2], P[:, _P_G3] = col(p.gain_a1), col(p.gain_a2), col(p.gain_a3)
-        P[:, _P_ADAPT] = self.adaptive[:, 0]
-        P[:, _P_ANYADAPT] = float(np.any(self.adaptive))
+        P[:, _P_ADAPT] = col(p.adaptive)
         P[:, _P_GMIN] = col(p.g_min_fraction * A3 * np.sqrt(p.supply_pressure))
         P[:, _P_RP] = col(p.rate_prediction)
-        P[:, _P_ANYRP] = float(np.any(p.rate_prediction > 0))
         P[:, _P_TC] = self.ctx.control_dt
-        P[:, _P_OX] = self._offsets(p.force_sensor)
-        P[:, _P_OS] = self._offsets("travel")
-        P[:, _P_OVREL] = self._offsets("travel_rate")
-        P[:, _P_OVB] = self._offsets("corner_body_vel")
-        P[:, _P_OXV] = self._offsets(p.spool_sensor)
-        if P[0, _P_ANYFD] or P[0, _P_ANYRP]:
-            P[:, _P_OAB] = self._offsets("corner_body_acc")
-            P[:, _P_OAW] = self._offsets("wheel_acc")
-        else:
-            P[:, _P_OAB] = P[:, _P_OAW] = -1.0
+        P[:, _P_OX] = self._starts(p.force_sensor)
+        P[:, _P_OS] = self._starts("travel")
+        P[:, _P_OVREL] = self._starts("travel_rate")
+        P[:, _P_OVB] = self._starts("corner_body_vel")
+        P[:, _P_OXV] = self._starts(p.spool_sensor)
+        accelerometers = np.any(P[:, _P_FD] != 0) or np.any(P[:, _P_RP] > 0)
+        P[:, _P_OAB] = self._starts("corner_body_acc") if accelerometers else -1.0
+        P[:, _P_OAW] = self._starts("wheel_acc") if accelerometers else -1.0
         S = np.zeros((n, 1 + len(_S_BLOCKS) * nc))
-        blocks = {"F_d": self.xd, "F_a": self.x, "force_error": self.xe, "p_e": self.pe, "u_s": self.us,
-                  "a1_hat": -self.theta[0], "a2_hat": -self.theta[1], "a3_hat": self.theta[2], "u": self.u}
-        if self._prev is not None:
-            S[:, 0] = 1.0
-            x0, s0, _, Y3p, _ = self._prev
-            blocks.update(x_hat=self.x_hat, s_prev=s0, Y3_prev=Y3p, F_a=x0)
-        for name, v in blocks.items():
+        for name, v in (("a1_hat", p.a1), ("a2_hat", p.a2), ("a3_hat", p.a3)):  # θ̂(0): Table 1 by default
             k = _SB[name]
-            S[:, 1 + k * nc:1 + (k + 1) * nc] = np.broadcast_to(v, (n, nc))
-        return np.ascontiguousarray(P), S
+            S[:, 1 + k * nc:1 + (k + 1) * nc] = np.asarray(v, dtype=float).reshape(-1, 1)
+        return P, S
 
     def kernel_signals(self):
         nc = self.ctx.n_corners
         return {name: (1 + _SB[name] * nc, 1 + (_SB[name] + 1) * nc)
                 for name in ("F_d", "F_a", "force_error", "p_e", "u_s", "a1_hat", "a2_hat", "a3_hat")}
-
-    def kernel_sync(self, st):
-        nc = self.ctx.n_corners
-        b = {name: np.array(st[:, 1 + k * nc:1 + (k + 1) * nc]) for k, name in enumerate(_S_BLOCKS)}
-        self.theta = [-b["a1_hat"], -b["a2_hat"], b["a3_hat"].copy()]
-        self.xd, self.x, self.xe, self.pe, self.us, self.u = b["F_d"], b["F_a"], b["force_error"], b["p_e"], b["u_s"], b["u"]
-        if st[0, 0] != 0.0:
-            self.x_hat = b["x_hat"]
-            self._prev = (b["F_a"], b["s_prev"], b["F_a"], b["Y3_prev"], b["p_e"])

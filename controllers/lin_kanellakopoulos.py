@@ -67,10 +67,13 @@ restores θ̂/γ̂ = θ/γ).  Along a trajectory, (16) and (22) hold to the samp
 Variants (Figs. 4–5): ``adaptive: false`` keeps θ̂ at its initial value (non-adaptive); "known parameters" is
 a scenario whose nominal values equal the plant's.  θ̂(0) = (nominal α)·(nominal A), as in the paper.
 
-Compiled kernel (``_kernel``, see :mod:`suspension_sim.compiled`): the derivation's lambdified code is copied
-into this file as a numba function (``kernel_source()``; a test checks the copy is current), with powers
-evaluated as the reference does.  Bit-identical to ``step`` while |η| <= m1; beyond, numpy's exp and pow
-and the C library's differ in the last bit, which the ill-conditioned law amplifies (see the tests).
+The law is written once, as the numba function ``_kernel`` (one car): the compiled loop inlines it and the
+base class runs it over the ensemble in the Python loop.  The derivation's lambdified code is copied into
+this file as a numba function (``kernel_source()``; a test checks that the copy is current, ``python -m
+suspension_sim.controllers.lin_kanellakopoulos`` rewrites it), so sympy runs only in the tests.  Rounding: powers
+by the C library's pow, as sympy's ``math`` printer writes them (squares as v·v for ensembles of more than 8
+corners), and the filter's exp(−ε·Tc) precomputed by numpy: results are those of the numpy implementation
+this kernel replaced.
 """
 from __future__ import annotations
 
@@ -160,9 +163,10 @@ def derivation():
 
 def kernel_source() -> str:
     """Numba source of the derivation's ``f_math`` (the block between the GENERATED markers below; a test
-    checks that it is up to date, ``python -m controllers.lin_kanellakopoulos`` rewrites it): the lambdified Python code with each power ``v**k`` replaced by
-    ``_pw(v, k, mode)``, so that the kernel rounds as the reference does: ``f_math`` evaluates ``v**k`` by the C
-    library's pow (which for k = 2 is not always v·v), ``f_numpy`` squares by v·v."""
+    checks that it is up to date, ``python -m suspension_sim.controllers.lin_kanellakopoulos`` rewrites it): the
+    lambdified Python code with each power ``v**k`` replaced by ``_pw(v, k, mode)``: mode 0 evaluates ``v**k``
+    by the C library's pow (as ``f_math`` does; for k = 2 not always v·v), mode 1 squares by v·v (as
+    ``f_numpy`` does)."""
     import inspect
 
     src = inspect.getsource(derivation()["f_math"])
@@ -178,9 +182,8 @@ def kernel_source() -> str:
 
 @numba.njit(cache=True)
 def _pw(v, k, mode):
-    """v**k as the reference evaluates it: mode 0 the C library's pow (f_math), mode 1 v·v for k = 2
-    (numpy's square, f_numpy) and pow otherwise; k is passed at run time so that the compiler cannot
-    turn pow(v, 2.0) into v·v."""
+    """v**k: mode 0 the C library's pow (as f_math), mode 1 v·v for k = 2 (as f_numpy) and pow otherwise; k is
+    passed at run time so that the compiler cannot turn pow(v, 2.0) into v·v."""
     if mode == 1 and k == 2.0:
         return v * v
     return math.pow(v, k)
@@ -297,15 +300,7 @@ def _lin_eval(two, three, mode, x1, x2, x3, x4, x5, xb, P0, P1, P2, P3, th, S, Q
 # --- END GENERATED ---
 
 
-def phi_derivatives(eta, m1, m2):
-    """φ(η) of Eq. (10) and its first three derivatives: with d = η − m1 (η > m1), η + m1 (η < −m1), 0
-    otherwise: φ = (d/m2)⁴, φ' = 4d³/m2⁴, φ'' = 12d²/m2⁴, φ''' = 24d/m2⁴."""
-    d = np.where(eta > m1, eta - m1, np.where(eta < -m1, eta + m1, 0.0))
-    k = 1.0 / m2 ** 4
-    return d ** 4 * k, 4 * d ** 3 * k, 12 * d ** 2 * k, 24 * d * k
-
-
-# compiled kernel --------------------------------------------------------------------------------------------
+# the law ---------------------------------------------------------------------------------------------------
 (_P_OTRAV, _P_OWPOS, _P_OVB, _P_OVW, _P_OPL, _P_OXV, _P_M1, _P_K4, _P_PS, _P_G, _P_TAU, _P_EPS, _P_EPS1, _P_TC,
  _P_ADAPT, _P_A0, _P_MODE, _P_TWO, _P_THREE, _P_FOUR) = range(20)
 _NPH = 20  # then the 18 plant/design values of _PARAM
@@ -316,8 +311,10 @@ _ST = ("e", "lam", "x4p", "th") + _SIG  # blocks of n_corners after [started]
 
 @numba.njit(cache=True)
 def _kernel(t, y, p, st, u):
-    """Compiled ``LinKanellakopoulos.step`` for one car: the same operations as the numpy law and its
-    ``f_math`` (or, for ensembles of more than 8 corners, ``f_numpy``) evaluation of the derivation."""
+    """The law for one car: the filter error e = x̄3 − x3 advanced over the interval that just ended (de/dt =
+    −λ·e − x4 with λ held and x4 the mean of its end values; holding x4 would be off by (Tc/2)·ẋ4 per step),
+    φ(η) of Eq. (10) and its derivatives, w3 with the guard of Section 5, the derivation (``_lin_eval``), the
+    command (15), and θ̂ by forward Euler of (12)."""
     nc = u.shape[0]
     started = st[0] != 0.0
     Tc = p[_P_TC]
@@ -337,7 +334,7 @@ def _kernel(t, y, p, st, u):
             lam = st[1 + nc + c]
             x4p = st[1 + 2 * nc + c]
             if lam == p[_P_EPS]:
-                a = p[_P_A0]  # numpy's exp(−ε·Tc), precomputed (|η| <= m1)
+                a = p[_P_A0]  # exp(−ε·Tc), precomputed (|η| <= m1)
             else:
                 a = np.exp(-lam * Tc)
             e = e * a - 0.5 * (x4 + x4p) * (1.0 - a) / lam
@@ -345,7 +342,7 @@ def _kernel(t, y, p, st, u):
         xb = x3 + e
         eta = x1 - x3
         m1 = p[_P_M1]
-        if eta > m1:
+        if eta > m1:  # φ = (d/m2)⁴, φ' = 4d³/m2⁴, φ'' = 12d²/m2⁴, φ‴ = 24d/m2⁴
             d = eta - m1
         elif eta < -m1:
             d = eta + m1
@@ -426,10 +423,6 @@ class LinKanellakopoulosParams(Params):
     w3_guard: float = Field(1.0, gt=0, description="|w3| below this is replaced by ±w3_guard in denominators")
 
 
-def _flag(v, n):
-    return np.asarray(v if isinstance(v, (list, tuple)) else [v] * n, dtype=float).reshape(n, 1)
-
-
 @CONTROLLERS.register("lin_kanellakopoulos")
 class LinKanellakopoulos(Controller):
     """Lin & Kanellakopoulos (1996): adaptive backstepping (tuning functions, θ = α·A) with the nonlinear
@@ -439,153 +432,38 @@ class LinKanellakopoulos(Controller):
     requires = ("travel", "wheel_pos", "corner_body_vel", "wheel_vel", "load_pressure", "spool_position")
     kernel = staticmethod(_kernel)
 
-    def reset(self):
-        n, c = self.ctx.n_cars, self.ctx.n_corners
-        p = self.p
-        self.sh = (n, c)
-        self.e = None  # filter error x̄3 − x3
-        self._prev = None
-        self.th = np.broadcast_to(np.asarray(p.alpha, float) * np.asarray(p.area, float), self.sh).copy()
-        self.adaptive = _flag(p.adaptive, n)
-        self.sig = {k: np.zeros(self.sh) for k in _OUT}
-        self.sig.update(phi=np.zeros(self.sh), omega3=np.zeros(self.sh), u=np.zeros(self.sh))
-        names = {"Mb": "sprung_mass", "Mus": "unsprung_mass", "Ka": "spring_stiffness", "Ca": "damping",
-                 "Kt": "tire_stiffness", "A": "area", "beta": "beta", "gam": "gamma", "rho": "rho", "c1": "c1",
-                 "c2": "c2", "c3": "c3", "c4": "c4", "b3": "b3", "b4": "b4", "eps": "eps", "eps1": "eps1",
-                 "Gam": "adaptation_gain"}
-        self.par = [np.broadcast_to(np.asarray(getattr(p, names[k]), float), self.sh) for k in _PARAM]
-        self.par_el = [[float(a.flat[i]) for a in self.par] for i in range(n * c)]  # per element (math path)
-        self.fn = derivation()
+    _NAMES = {"Mb": "sprung_mass", "Mus": "unsprung_mass", "Ka": "spring_stiffness", "Ca": "damping",
+              "Kt": "tire_stiffness", "A": "area", "beta": "beta", "gam": "gamma", "rho": "rho", "c1": "c1",
+              "c2": "c2", "c3": "c3", "c4": "c4", "b3": "b3", "b4": "b4", "eps": "eps", "eps1": "eps1",
+              "Gam": "adaptation_gain"}
 
-    def _get(self, y, name):
-        return y[name] if name in y else y[f"state.{name}"]
-
-    def step(self, t, y):
-        p = self.p
-        Tc = self.ctx.control_dt
-        travel = self._get(y, "travel")
-        x3 = self._get(y, "wheel_pos")
-        x1 = travel + x3
-        x2 = self._get(y, "corner_body_vel")
-        x4 = self._get(y, "wheel_vel")
-        x5 = self._get(y, "load_pressure")
-        x6 = self._get(y, "spool_position")
-        if self.e is None:
-            self.e = np.zeros(self.sh)
-        elif self._prev is not None:
-            # filter error e = x̄3 − x3 over the interval that just ended: de/dt = −λ·e − x4 with λ held and
-            # x4 the mean of its end values (trapezoid; holding x4 would be off by (Tc/2)·ẋ4 per step)
-            lam, x4p = self._prev
-            a = np.exp(-lam * Tc)
-            self.e = self.e * a - 0.5 * (x4 + x4p) * (1.0 - a) / lam
-        xb = x3 + self.e
-        eta = x1 - x3
-        P0, P1, P2, P3 = phi_derivatives(eta, p.m1, p.m2)
-        D = p.supply_pressure - np.sign(x6) * x5
-        w3 = np.sign(D) * np.sqrt(np.abs(D))
-        g = p.w3_guard
-        w3g = np.where(np.abs(w3) < g, np.where(w3 >= 0, g, -g), w3)
-        S = x6 * w3
-        Q = np.abs(x6) / (2.0 * np.abs(w3g))
-        args = [x1, x2, x3, x4, x5, xb, P0, P1, P2, P3, self.th, S, Q]
-        out = self._evaluate(args)
-        tau = p.spool_time_constant
-        alpha4 = x6 * w3 / tau + out["alpha4_rest"]
-        u = tau * alpha4 / w3g
-
-        # advance the controller states over the control step
-        self._prev = (p.eps + p.eps1 * P0, x4)
-        th_old = self.th
-        self.th = self.th + self.adaptive * Tc * out["thdot"]
-
-        out.update(phi=P0, omega3=-(x2 - x4), u=u)
-        out["theta_hat"] = p.rho * th_old
-        self.sig = out
-        return u
-
-    def _evaluate(self, args):
-        n_el = self.sh[0] * self.sh[1]
-        if n_el <= 8:
-            cols = [np.asarray(a, float).reshape(-1) for a in args]  # all (n_cars, n_corners)
-            f = self.fn["f_math"]
-            res = np.array([f(*[float(c[i]) for c in cols], *self.par_el[i]) for i in range(n_el)])
-            return {k: res[:, j].reshape(self.sh) for j, k in enumerate(_OUT)}
-        res = self.fn["f_numpy"](*args, *self.par)
-        return {k: np.broadcast_to(np.asarray(v, float), self.sh) for k, v in zip(_OUT, res)}
-
-    def signals(self):
-        s = self.sig
-        keys = ("z1", "z2", "z3", "z4", "theta_hat", "omega3", "omega4", "h3", "h4", "R3", "R4", "d3", "d4",
-                "phi", "u")
-        return {k: s[k] for k in keys if k in s}
-
-    # compiled kernel ------------------------------------------------------------------------------------
     def kernel_data(self):
-        n, nc, p = self.ctx.n_cars, self.ctx.n_corners, self.p
-
-        def col(v):
-            a = np.broadcast_to(np.asarray(v, dtype=float), self.sh)
-            if not np.all(a == a[:, :1]):
-                raise NotImplementedError("lin_kanellakopoulos kernel: per-corner parameter values")
-            return a[:, 0]
-
-        def start(name):
-            try:
-                return float(self.ctx.sensor_slice(name)[0])
-            except KeyError:
-                raise NotImplementedError(f"lin_kanellakopoulos kernel needs the declared sensor {name!r}") from None
+        n, nc, p, col = self.ctx.n_cars, self.ctx.n_corners, self.p, self.per_car
 
         P = np.zeros((n, _NPH + len(_PARAM)))
         for j, name in ((_P_OTRAV, "travel"), (_P_OWPOS, "wheel_pos"), (_P_OVB, "corner_body_vel"),
                         (_P_OVW, "wheel_vel"), (_P_OPL, "load_pressure"), (_P_OXV, "spool_position")):
-            P[:, j] = start(name)
+            P[:, j] = self.ctx.reading_start(name)
         P[:, _P_M1] = col(p.m1)
-        P[:, _P_K4] = col(1.0 / p.m2 ** 4)  # as in phi_derivatives
+        P[:, _P_K4] = col(1.0 / p.m2 ** 4)
         P[:, _P_PS], P[:, _P_G], P[:, _P_TAU] = col(p.supply_pressure), col(p.w3_guard), col(p.spool_time_constant)
         P[:, _P_EPS], P[:, _P_EPS1] = col(p.eps), col(p.eps1)
         Tc = self.ctx.control_dt
         P[:, _P_TC] = Tc
-        P[:, _P_ADAPT] = self.adaptive[:, 0]
-        lam0 = np.ascontiguousarray(np.broadcast_to(p.eps + p.eps1 * 0.0, self.sh))  # λ for |η| <= m1
-        P[:, _P_A0] = np.exp(-lam0 * Tc)[:, 0]  # numpy's exp, as in step()
-        P[:, _P_MODE] = 0.0 if self.sh[0] * self.sh[1] <= 8 else 1.0  # f_math or f_numpy, as in _evaluate
+        P[:, _P_ADAPT] = col(p.adaptive)
+        P[:, _P_A0] = np.exp(-col(p.eps + p.eps1 * 0.0) * Tc)  # the filter's e^(−λ·Tc) for |η| <= m1
+        P[:, _P_MODE] = 0.0 if n * nc <= 8 else 1.0
         P[:, _P_TWO], P[:, _P_THREE], P[:, _P_FOUR] = 2.0, 3.0, 4.0
-        for j, a in enumerate(self.par):
-            P[:, _NPH + j] = col(a)
+        for j, k in enumerate(_PARAM):
+            P[:, _NPH + j] = col(getattr(p, self._NAMES[k]))
         S = np.zeros((n, 1 + len(_ST) * nc))
-
-        def put(name, v):
-            k = _ST.index(name)
-            S[:, 1 + k * nc:1 + (k + 1) * nc] = np.broadcast_to(v, self.sh)
-
-        if self.e is not None:
-            S[:, 0] = 1.0
-            put("e", self.e)
-            if self._prev is not None:
-                put("lam", self._prev[0])
-                put("x4p", self._prev[1])
-        put("th", self.th)
-        for name in _SIG:
-            if name in self.sig:
-                put(name, self.sig[name])
-        return np.ascontiguousarray(P), S
+        k = _ST.index("th")
+        S[:, 1 + k * nc:1 + (k + 1) * nc] = (np.asarray(p.alpha, float) * np.asarray(p.area, float)).reshape(-1, 1)
+        return P, S
 
     def kernel_signals(self):
         nc = self.ctx.n_corners
         return {name: (1 + _ST.index(name) * nc, 1 + (_ST.index(name) + 1) * nc) for name in _SIG}
-
-    def kernel_sync(self, st):
-        nc = self.ctx.n_corners
-
-        def blk(name):
-            k = _ST.index(name)
-            return np.array(st[:, 1 + k * nc:1 + (k + 1) * nc])
-
-        self.th = blk("th")
-        if st[0, 0] != 0.0:
-            self.e = blk("e")
-            self._prev = (blk("lam"), blk("x4p"))
-            self.sig = {name: blk(name) for name in _SIG}
 
 
 if __name__ == "__main__":  # python -m controllers.lin_kanellakopoulos: rewrite the GENERATED block

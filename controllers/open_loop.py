@@ -27,8 +27,9 @@ the front of a half car).  ``fade_in`` (s) ramps the signal in with a half cosin
 random signals are the same on every corner unless ``independent: true``.  The command's unit is the
 actuator's (N for a force actuator).
 
-All signals but ``random`` (drawn lazily from numpy Generators: its controller is an ``_OpenLoopRandom``,
-without kernel) have a compiled kernel (``_kernel``, see :mod:`suspension_sim.compiled`) that reproduces ``step``.
+The law is written once, as the numba function ``_kernel`` (one car).  The ``random`` signal's samples are
+drawn lazily from numpy Generators, in Python (its controller is an ``_OpenLoopRandom``: the compiled loop
+returns to Python at its control instants), and handed to the same law.
 """
 from __future__ import annotations
 
@@ -39,11 +40,12 @@ from typing import Literal, Optional, Union
 import numba
 import numpy as np
 from pydantic import Field, model_validator
-from scipy.signal import chirp, max_len_seq
+from scipy.signal import max_len_seq
 
 from suspension_sim.compiled.numpy_order import pairwise_sum
 from suspension_sim.components import Params
 from suspension_sim.errors import ScenarioError
+from suspension_sim.kernels import broadcast_controller, call, f64
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
@@ -143,11 +145,11 @@ def _load_table(path, mtime, time_column, columns):
 # compiled kernel --------------------------------------------------------------------------------------------
 # parameter row: a fixed header, then amplitude and offset per corner, then the signal's data (multisine
 # lines f, a, φ; the PRBS sequence; the table's times and columns)
-_SIGNALS = ("constant", "step", "sine", "multisine", "chirp", "prbs", "table")
+_SIGNALS = ("constant", "step", "sine", "multisine", "chirp", "prbs", "table", "random")
 _METHODS = ("linear", "quadratic", "logarithmic", "hyperbolic")
-(_H_SIG, _H_START, _H_HASSTOP, _H_STOP, _H_FADEON, _H_FADE, _H_HOLD, _H_FREQ, _H_PHASE, _H_METHOD, _H_F0, _H_F1,
- _H_T1, _H_LEN, _H_K, _H_PREV) = range(16)
-_HEADER = 16
+(_H_SIG, _H_START, _H_HASSTOP, _H_STOP, _H_FADE, _H_HOLD, _H_FREQ, _H_PHASE, _H_METHOD, _H_F0, _H_F1, _H_T1,
+ _H_LEN, _H_K, _H_PREV) = range(15)
+_HEADER = 15
 
 
 @numba.njit(cache=True)
@@ -177,8 +179,9 @@ def _chirp(t, f0, t1, f1, method, phi_deg):
 
 @numba.njit(cache=True)
 def _kernel(t, y, p, st, u):
-    """Compiled ``OpenLoop.step`` for one car (all signals but ``random``); ``st`` is scratch for the
-    multisine terms."""
+    """The law for one car: u = offset + amplitude·s(τ) while active, offset otherwise; s(τ) goes into st[0:k]
+    (k = 1: shared by the corners; st[1:] is scratch for the multisine terms); for ``random`` the caller has
+    written the samples there."""
     nc = u.shape[0]
     sig = int(p[_H_SIG])
     amp = _HEADER
@@ -210,7 +213,7 @@ def _kernel(t, y, p, st, u):
         j = int(np.floor(taum / p[_H_HOLD] + 1e-9)) % n
         for c in range(k):
             st[c] = p[d + j * k + c]
-    else:
+    elif sig == 6:
         tt = p[d:d + n]
         if p[_H_PREV] != 0.0:
             j = np.searchsorted(tt, taum, side="right") - 1
@@ -220,14 +223,10 @@ def _kernel(t, y, p, st, u):
         else:
             for c in range(k):
                 st[c] = np.interp(taum, tt, p[d + n + c * n:d + n + (c + 1) * n])
-    if p[_H_FADEON] != 0.0:
-        fade = p[_H_FADE]
-        if fade > 0:
-            x = tau / max(fade, 1e-300)
-            x = min(max(x, 0.0), 1.0)
-            w = 0.5 - 0.5 * np.cos(np.pi * x)
-        else:
-            w = 1.0
+    fade = p[_H_FADE]
+    if fade > 0:  # half-cosine fade-in
+        x = min(max(tau / fade, 0.0), 1.0)
+        w = 0.5 - 0.5 * np.cos(np.pi * x)
         for c in range(k):
             st[c] = st[c] * w
     for c in range(nc):
@@ -259,6 +258,7 @@ class OpenLoop(Controller):
         return np.broadcast_to(a, (n, nc)).astype(float)
 
     def reset(self):
+        super().reset()
         p, n, nc = self.p, self.ctx.n_cars, self.ctx.n_corners
         self.amp = self._corner_array("amplitude")
         self.off = self._corner_array("offset")
@@ -323,71 +323,9 @@ class OpenLoop(Controller):
             a = np.broadcast_to(a, (self.ctx.n_cars, a.size))
         return a.reshape(self.ctx.n_cars, -1)
 
-    def _shape(self, tau):
-        """s(τ) before amplitude/offset/gating: (n, 1) or (n, nc); tau (n, 1) >= 0 where active."""
-        p, n, nc = self.p, self.ctx.n_cars, self.ctx.n_corners
-        s = self.sig
-        if s in ("constant", "step"):
-            return np.ones((n, 1))
-        if s == "sine":
-            return np.sin(2 * np.pi * np.asarray(p.frequency, dtype=float).reshape(-1, 1) * tau
-                          + np.asarray(p.phase, dtype=float).reshape(-1, 1))
-        if s == "multisine":
-            f, a, ph = self.ms
-            return np.sum(a * np.sin(2 * np.pi * f * tau + ph), axis=1, keepdims=True)
-        if s == "chirp":
-            out = np.empty((n, 1))
-            f0, f1, t1, ph = (np.broadcast_to(np.asarray(getattr(p, k), dtype=float).reshape(-1), (n,))
-                              for k in ("f0", "f1", "t1", "phase"))
-            for i in range(n):
-                out[i, 0] = chirp(float(tau[i, 0]), f0[i], t1[i], f1[i], method=p.method,
-                                  phi=np.degrees(ph[i]) - 90.0)
-            return out
-        idx = np.floor(tau[:, 0] / self.hold[:, 0] + 1e-9).astype(np.int64)
-        if s == "prbs":
-            return np.stack([q[j % len(q)] for q, j in zip(self.seq, idx)])
-        if s == "random":
-            out = []
-            for i in range(n):
-                while idx[i] >= len(self.noise[i]):
-                    self.noise[i] = np.concatenate([self.noise[i], self.rngs[i].standard_normal((1024, self.k))])
-                out.append(self.noise[i][max(idx[i], 0)])
-            return np.stack(out)
-        if s == "table":
-            rows = []
-            for i, (tt, vv) in enumerate(self.tables):
-                x = float(tau[i, 0])
-                if p.interpolation == "previous":
-                    j = int(np.clip(np.searchsorted(tt, x, side="right") - 1, 0, len(tt) - 1))
-                    rows.append(vv[j])
-                else:
-                    rows.append(np.array([np.interp(x, tt, vv[:, c]) for c in range(vv.shape[1])]))
-            return np.stack(rows)
-        raise AssertionError(s)
-
-    def step(self, t, y):
-        n, nc = self.ctx.n_cars, self.ctx.n_corners
-        tau = t - self.start_  # (n, 1)
-        if self.sig == "constant":
-            return self.off + self.amp
-        active = tau >= 0
-        if self.stop_ is not None:
-            active &= t < self.stop_
-        s = self._shape(np.maximum(tau, 0.0))
-        if np.any(self.fade > 0):
-            w = np.where(self.fade > 0, 0.5 - 0.5 * np.cos(np.pi * np.clip(tau / np.maximum(self.fade, 1e-300), 0, 1)), 1.0)
-            s = s * w
-        u = self.off + np.where(active, self.amp * s, 0.0)
-        return np.broadcast_to(u, (n, nc)).copy()
-
     def kernel_data(self):
         n, nc = self.ctx.n_cars, self.ctx.n_corners
-        if self.sig == "random":
-            raise NotImplementedError("open_loop 'random' has no compiled kernel (numpy Generator samples)")
-        p_ = self.p
-
-        def per_car(v):
-            return np.broadcast_to(np.asarray(v, dtype=float).reshape(-1), (n,))
+        p_, per_car = self.p, self.per_car
 
         if self.sig == "multisine":
             f, a, ph = (np.broadcast_to(x, (n, self.ms[0].shape[1])) for x in self.ms)
@@ -403,6 +341,10 @@ class OpenLoop(Controller):
                 raise NotImplementedError("open_loop kernel: table widths differ across the cars")
             length = [len(tt) for tt, _ in self.tables]  # per car
             data = [np.concatenate([tt, vv.T.reshape(-1)]) for tt, vv in self.tables]
+        elif self.sig == "random":
+            data = [np.zeros(0)] * n
+            length, ks = 0, self.k
+            k = ks
         else:
             data = [np.zeros(0)] * n
             length, k, ks = 0, 1, 1
@@ -413,7 +355,6 @@ class OpenLoop(Controller):
         p[:, _H_HASSTOP] = float(self.stop_ is not None)
         if self.stop_ is not None:
             p[:, _H_STOP] = np.broadcast_to(self.stop_, (n, 1))[:, 0]
-        p[:, _H_FADEON] = float(np.any(self.fade > 0))
         p[:, _H_FADE] = np.broadcast_to(self.fade, (n, 1))[:, 0]
         p[:, _H_HOLD] = np.broadcast_to(self.hold, (n, 1))[:, 0]
         if self.sig == "sine":
@@ -434,6 +375,21 @@ class OpenLoop(Controller):
 
 
 class _OpenLoopRandom(OpenLoop):
-    """OpenLoop with the ``random`` signal: no compiled kernel (see OpenLoop.__new__)."""
+    """OpenLoop with the ``random`` signal (see OpenLoop.__new__): Gaussian samples drawn lazily from numpy
+    Generators, one per ``hold`` seconds, handed to the law; no compiled kernel."""
 
     kernel = None
+
+    def step(self, t, y):
+        if self._kd is None:
+            self._kd = tuple(f64(x) for x in self.kernel_data())
+        p, st = self._kd
+        tau = np.maximum(t - self.start_[:, 0], 0.0)
+        idx = np.floor(tau / self.hold[:, 0] + 1e-9).astype(np.int64)
+        for i in range(self.ctx.n_cars):
+            while idx[i] >= len(self.noise[i]):
+                self.noise[i] = np.concatenate([self.noise[i], self.rngs[i].standard_normal((1024, self.k))])
+            st[i, :self.k] = self.noise[i][max(idx[i], 0)]
+        u = self.zeros()
+        call(broadcast_controller, _kernel, float(t), np.zeros((self.ctx.n_cars, 0)), p, st, u)
+        return u

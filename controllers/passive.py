@@ -11,7 +11,7 @@ from .base import Controller
 
 @numba.njit(cache=True)
 def _kernel(t, y, p, st, u):
-    """Compiled ``Passive.step`` for one car: zero command on every corner."""
+    """The law for one car: zero command on every corner."""
     for c in range(u.shape[0]):
         u[c] = 0.0
 
@@ -21,9 +21,6 @@ class Passive(Controller):
     """Passive: zero actuator command (the model's spring and damper act alone)."""
 
     kernel = staticmethod(_kernel)
-
-    def step(self, t, y):
-        return self.zeros()
 
     def kernel_data(self):
         n = self.ctx.n_cars

@@ -36,9 +36,8 @@ Sensors: ``travel`` (Δx = −travel), ``travel_rate`` (Δv = −rate) and the b
 (``corner_body_vel``), as the paper's state feedback assumes.  Signals: ``fk_hat``, ``fb_hat`` (the
 estimated stiffness and damping at the current Δx, Δv), ``v_err`` (ṽ), ``beta_k.i``, ``beta_b.i``.
 
-Compiled kernel (``_kernel``, see :mod:`suspension_sim.compiled`): bit-identical to ``step`` for the
-triangular bases (numpy's pairwise summation is reproduced); with gaussian memberships numpy's exp and the C
-library's may differ in the last bit (tests/test_kernels_controllers.py).
+The law is written once, as the numba function ``_kernel`` (one car; sums in numpy's pairwise order); the
+compiled loop inlines it and the base class runs it over the ensemble in the Python loop.
 """
 from __future__ import annotations
 
@@ -52,7 +51,7 @@ from suspension_sim.compiled.numpy_order import pairwise_sum
 from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
-from .base import Controller
+from .base import Controller, block_offsets
 
 G = 9.81
 LN2 = np.log(2.0)
@@ -81,28 +80,7 @@ class ToscanoDumasParams(Params):
                                                           "(default: the commanded force)")
 
 
-def basis(u: np.ndarray, n_rules: int, umax: float, membership: str, alpha_two: float) -> np.ndarray:
-    """Normalised fuzzy basis functions ψ_i(u), shape u.shape + (n_rules,)."""
-    u = np.asarray(u, dtype=float)
-    if membership == "triangular" and n_rules == 2:
-        mu = np.maximum(np.minimum(alpha_two * u + 1.0, 1.0 - alpha_two * u), 0.0)
-        return np.stack([mu, 1.0 - mu], axis=-1)
-    m = np.linspace(-umax, umax, n_rules)  # Eq. (16)
-    d = u[..., None] - m
-    if membership == "gaussian":
-        sigma = 2 * umax / (2 * np.sqrt(2 * LN2) * (n_rules - 1))
-        mu = np.exp(-0.5 * (d / sigma) ** 2)
-    else:
-        h = 2 * umax / (n_rules - 1)
-        mu = np.maximum(1.0 - np.abs(d) / h, 0.0)
-        # outside the range the end triangles hold (so the sum never vanishes)
-        mu[..., 0] = np.where(u <= m[0], 1.0, mu[..., 0])
-        mu[..., -1] = np.where(u >= m[-1], 1.0, mu[..., -1])
-    s = mu.sum(axis=-1, keepdims=True)
-    return mu / np.maximum(s, 1e-300)
-
-
-# compiled kernel --------------------------------------------------------------------------------------------
+# the law ---------------------------------------------------------------------------------------------------
 (_P_KREF, _P_BREF, _P_OTR, _P_ORATE, _P_OVEL, _P_OF, _P_NK, _P_NB, _P_MEMBK, _P_MEMBB, _P_AK, _P_AB, _P_HK,
  _P_HB) = range(14)
 _NP = 14  # then the rule centres m_k (nk), m_b (nb), then per corner λ_k/M, λ_b/M, e^(−α·dt), M
@@ -111,8 +89,9 @@ _NP = 14  # then the rule centres m_k (nk), m_b (nb), then per corner λ_k/M, λ
 
 @numba.njit(cache=True)
 def _basis(u, nr, memb, alpha_two, m, lo_m, h, psi, lo):
-    """``basis`` for a scalar u into psi[lo:lo+nr] (psi[lo+nr:lo+2nr] is scratch); m[lo_m:lo_m+nr] the rule
-    centres, h the half-width (triangles) or σ (gaussians)."""
+    """The normalised fuzzy basis functions ψ_i(u) of a scalar u into psi[lo:lo+nr] (psi[lo+nr:lo+2nr] is
+    scratch): memb 0 the paper's triangle pair (33) of slope alpha_two, 1 triangles of half-width h on the
+    grid of rule centres m[lo_m:lo_m+nr] (the end ones held outside the range), 2 gaussians of width σ = h."""
     if memb == 0:
         a = alpha_two * u + 1.0
         b = 1.0 - alpha_two * u
@@ -142,8 +121,18 @@ def _basis(u, nr, memb, alpha_two, m, lo_m, h, psi, lo):
 
 
 @numba.njit(cache=True)
+def _expand(st, o_beta, o_psi, n, o_tmp):
+    """f̂ = Σ β̂_i·ψ_i of the blocks st[o_beta:o_beta+n], st[o_psi:o_psi+n], summed in numpy's pairwise order
+    (st[o_tmp:o_tmp+n] is scratch)."""
+    for i in range(n):
+        st[o_tmp + i] = st[o_beta + i] * st[o_psi + i]
+    return pairwise_sum(st, o_tmp, n)
+
+
+@numba.njit(cache=True)
 def _kernel(t, y, p, st, u):
-    """Compiled ``ToscanoDumas.step`` for one car (same operations in the same order as the numpy law)."""
+    """The law for one car: estimator (20) and gradient law (27) over the last control step (explicit Euler
+    from the previous step's regressors, the α term exactly), then the control (28) with the new estimates."""
     nc = u.shape[0]
     nk, nb = int(p[_P_NK]), int(p[_P_NB])
     dt = st[1]
@@ -174,12 +163,8 @@ def _kernel(t, y, p, st, u):
             st[o_vhat + c] = v
         else:
             dx0, dv0 = st[o_dx0 + c], st[o_dv0 + c]
-            for i in range(nk):
-                st[o_tmp + i] = st[o_bk + c * nk + i] * st[o_pk0 + 2 * c * nk + i]
-            fk0 = pairwise_sum(st, o_tmp, nk)
-            for i in range(nb):
-                st[o_tmp + i] = st[o_bb + c * nb + i] * st[o_pb0 + 2 * c * nb + i]
-            fb0 = pairwise_sum(st, o_tmp, nb)
+            fk0 = _expand(st, o_bk + c * nk, o_pk0 + 2 * c * nk, nk, o_tmp)
+            fb0 = _expand(st, o_bb + c * nb, o_pb0 + 2 * c * nb, nb, o_tmp)
             drive = (fk0 * dx0 + fb0 * dv0 + F_prev) / M
             v_hat = e * st[o_vhat + c] + (1 - e) * st[o_v0 + c] + drive * dt
             st[o_vhat + c] = v_hat
@@ -191,12 +176,8 @@ def _kernel(t, y, p, st, u):
                 st[o_bb + c * nb + i] = st[o_bb + c * nb + i] + dt * gb * st[o_pb0 + 2 * c * nb + i] * (dv0 * v_err)
         _basis(dx, nk, int(p[_P_MEMBK]), p[_P_AK], p, m0, p[_P_HK], st, o_pk0 + 2 * c * nk)
         _basis(dv, nb, int(p[_P_MEMBB]), p[_P_AB], p, m0 + nk, p[_P_HB], st, o_pb0 + 2 * c * nb)
-        for i in range(nk):
-            st[o_tmp + i] = st[o_bk + c * nk + i] * st[o_pk0 + 2 * c * nk + i]
-        fk = pairwise_sum(st, o_tmp, nk)
-        for i in range(nb):
-            st[o_tmp + i] = st[o_bb + c * nb + i] * st[o_pb0 + 2 * c * nb + i]
-        fb = pairwise_sum(st, o_tmp, nb)
+        fk = _expand(st, o_bk + c * nk, o_pk0 + 2 * c * nk, nk, o_tmp)  # approximators (15)
+        fb = _expand(st, o_bb + c * nb, o_pb0 + 2 * c * nb, nb, o_tmp)
         F = (p[_P_KREF] - fk) * dx + (p[_P_BREF] - fb) * dv
         st[o_fk + c] = fk
         st[o_fb + c] = fb
@@ -224,11 +205,10 @@ class ToscanoDumas(Controller):
         return req
 
     def reset(self):
+        super().reset()
         n, nc = self.ctx.n_cars, self.ctx.n_corners
         p = self.p
         self.nk, self.nb = int(np.max(p.n_rules_k)), int(np.max(p.n_rules_b))
-        self.beta_k = np.broadcast_to(np.asarray(p.beta_k0, float).reshape(-1, 1, 1), (n, nc, self.nk)).copy()
-        self.beta_b = np.broadcast_to(np.asarray(p.beta_b0, float).reshape(-1, 1, 1), (n, nc, self.nb)).copy()
         if isinstance(p.body_mass, list):  # given for some cars of the ensemble only
             static = np.asarray(self.ctx.static_suspension_force, float) / G
             self.M = np.stack([static[i] if m is None else np.full(nc, float(m)) for i, m in enumerate(p.body_mass)])
@@ -236,104 +216,36 @@ class ToscanoDumas(Controller):
             self.M = np.broadcast_to(np.asarray(p.body_mass, float).reshape(-1, 1), (n, nc)).copy()
         else:
             self.M = np.asarray(self.ctx.static_suspension_force, float) / G
-        self.v_hat = None
-        self._last = None
-        self.v_err = np.zeros((n, nc))
-        self.F = np.zeros((n, nc))
-        self.fk = np.zeros((n, nc))
-        self.fb = np.zeros((n, nc))
         self.memb = p.membership if isinstance(p.membership, str) else p.membership[0]
 
-    def _psi(self, dx, dv):
-        p = self.p
-        pk = basis(dx, self.nk, float(np.max(p.range_dx)), self.memb, ALPHA_K * 0.2 / float(np.max(p.range_dx)))
-        pb = basis(dv, self.nb, float(np.max(p.range_dv)), self.memb, ALPHA_B * 20.0 / float(np.max(p.range_dv)))
-        return pk, pb
-
-    def step(self, t, y):
-        p = self.p
-        dt = self.ctx.control_dt
-        dx = -np.asarray(y[p.travel_sensor], float)
-        dv = -np.asarray(y[p.rate_sensor], float)
-        v = np.asarray(y[p.velocity_sensor], float)
-        F_prev = np.asarray(y[p.force_sensor], float) if p.force_sensor else self.F
-        if self.v_hat is None:
-            self.v_hat = v.copy()
-        # estimator (20) and gradient law (27) over the last control step (explicit Euler, from the values
-        # of the previous step's regressors; the α term exactly)
-        if self._last is not None:
-            dx0, dv0, pk0, pb0 = self._last
-            fk0 = np.sum(self.beta_k * pk0, axis=-1)
-            fb0 = np.sum(self.beta_b * pb0, axis=-1)
-            drive = (fk0 * dx0 + fb0 * dv0 + F_prev) / self.M
-            a = np.asarray(p.alpha, float)
-            e = np.exp(-a * dt)
-            self.v_hat = e * self.v_hat + (1 - e) * self._v0 + drive * dt
-            self.v_err = v - self.v_hat
-            gk = (np.asarray(p.lambda_k, float) / self.M)[..., None]
-            gb = (np.asarray(p.lambda_b, float) / self.M)[..., None]
-            self.beta_k = self.beta_k + dt * gk * pk0 * (dx0 * self.v_err)[..., None]
-            self.beta_b = self.beta_b + dt * gb * pb0 * (dv0 * self.v_err)[..., None]
-        pk, pb = self._psi(dx, dv)
-        self.fk = np.sum(self.beta_k * pk, axis=-1)
-        self.fb = np.sum(self.beta_b * pb, axis=-1)
-        self.F = (p.k_ref - self.fk) * dx + (p.b_ref - self.fb) * dv  # control (28)
-        self._last = (dx, dv, pk, pb)
-        self._v0 = v
-        return self.F
-
-    def signals(self):
-        out = {"fk_hat": self.fk, "fb_hat": self.fb, "v_err": self.v_err}
-        if self.ctx.n_corners == 1:
-            out["beta_k"] = self.beta_k[:, 0, :]
-            out["beta_b"] = self.beta_b[:, 0, :]
-        return out
-
-    # compiled kernel ------------------------------------------------------------------------------------
     def _kernel_layout(self):
         """Offsets of the kernel's state blocks (after [started, control_dt]); must match _kernel."""
         nc, nk, nb = self.ctx.n_corners, self.nk, self.nb
-        o, k = {}, 2
-        for name, w in (("vhat", nc), ("dx0", nc), ("dv0", nc), ("v0", nc), ("F", nc), ("fk", nc), ("fb", nc),
-                        ("verr", nc), ("bk", nc * nk), ("bb", nc * nb), ("pk0", 2 * nc * nk), ("pb0", 2 * nc * nb),
-                        ("tmp", max(nk, nb))):
-            o[name] = k
-            k += w
-        o["_next"] = k
-        return o
+        return block_offsets(2, (("vhat", nc), ("dx0", nc), ("dv0", nc), ("v0", nc), ("F", nc), ("fk", nc),
+                                 ("fb", nc), ("verr", nc), ("bk", nc * nk), ("bb", nc * nb), ("pk0", 2 * nc * nk),
+                                 ("pb0", 2 * nc * nb), ("tmp", max(nk, nb))))
 
     def kernel_data(self):
-        n, nc, p = self.ctx.n_cars, self.ctx.n_corners, self.p
+        n, nc, p, col = self.ctx.n_cars, self.ctx.n_corners, self.p, self.per_car
         nk, nb = self.nk, self.nb
-
-        def col(v):
-            return np.broadcast_to(np.asarray(v, dtype=float).reshape(-1), (n,))
-
-        def offset(name):
-            try:
-                return float(self.ctx.sensor_slice(name)[0])
-            except KeyError:
-                raise NotImplementedError(f"toscano_dumas kernel needs the declared sensor {name!r}") from None
 
         P = np.zeros((n, _NP + nk + nb + 4 * nc))
         P[:, _P_KREF], P[:, _P_BREF] = col(p.k_ref), col(p.b_ref)
-        P[:, _P_OTR], P[:, _P_ORATE], P[:, _P_OVEL] = (offset(p.travel_sensor), offset(p.rate_sensor),
-                                                       offset(p.velocity_sensor))
-        P[:, _P_OF] = offset(p.force_sensor) if p.force_sensor else -1.0
+        start = self.ctx.reading_start
+        P[:, _P_OTR], P[:, _P_ORATE], P[:, _P_OVEL] = (start(p.travel_sensor), start(p.rate_sensor),
+                                                       start(p.velocity_sensor))
+        P[:, _P_OF] = start(p.force_sensor) if p.force_sensor else -1.0
         P[:, _P_NK], P[:, _P_NB] = nk, nb
-        for j, nr in ((_P_MEMBK, nk), (_P_MEMBB, nb)):  # as in basis()
-            P[:, j] = 2 if self.memb == "gaussian" else (0 if nr == 2 else 1)
+        # the ranges and memberships are the ensemble's (the largest range)
         ukmax, ubmax = float(np.max(p.range_dx)), float(np.max(p.range_dv))
-        P[:, _P_AK], P[:, _P_AB] = ALPHA_K * 0.2 / ukmax, ALPHA_B * 20.0 / ubmax  # as in _psi
+        P[:, _P_AK], P[:, _P_AB] = ALPHA_K * 0.2 / ukmax, ALPHA_B * 20.0 / ubmax  # the pair's slope
         for j, (nr, umax) in enumerate(((nk, ukmax), (nb, ubmax))):
-            if self.memb == "gaussian":
-                h = 2 * umax / (2 * np.sqrt(2 * LN2) * (nr - 1))  # σ, as in basis()
-            else:
-                h = 2 * umax / (nr - 1)
+            memb, h, m = basis_shape(nr, umax, self.memb)
+            P[:, (_P_MEMBK, _P_MEMBB)[j]] = memb
             P[:, _P_HK + j] = h
-            P[:, _NP + (0 if j == 0 else nk):_NP + (nk if j == 0 else nk + nb)] = np.linspace(-umax, umax, nr)
+            P[:, _NP + (0 if j == 0 else nk):_NP + (nk if j == 0 else nk + nb)] = m
         dt = self.ctx.control_dt
-        e = np.broadcast_to(np.exp(-np.asarray(p.alpha, float) * dt), (n, nc))  # as in step()
+        e = np.broadcast_to(np.exp(-np.asarray(p.alpha, float) * dt), (n, nc))
         gk = np.broadcast_to(np.asarray(p.lambda_k, float) / self.M, (n, nc))
         gb = np.broadcast_to(np.asarray(p.lambda_b, float) / self.M, (n, nc))
         pc = np.stack([gk, gb, e, np.broadcast_to(self.M, (n, nc))], axis=-1)  # (n, nc, 4)
@@ -341,20 +253,9 @@ class ToscanoDumas(Controller):
         o = self._kernel_layout()
         S = np.zeros((n, o["_next"]))
         S[:, 1] = dt
-        if self._last is not None:
-            S[:, 0] = 1.0
-            dx0, dv0, pk0, pb0 = self._last
-            S[:, o["vhat"]:o["vhat"] + nc] = self.v_hat
-            S[:, o["dx0"]:o["dx0"] + nc] = dx0
-            S[:, o["dv0"]:o["dv0"] + nc] = dv0
-            S[:, o["v0"]:o["v0"] + nc] = self._v0
-            S[:, o["pk0"]:o["pk0"] + 2 * nc * nk] = np.concatenate([pk0, np.zeros_like(pk0)], axis=-1).reshape(n, -1)
-            S[:, o["pb0"]:o["pb0"] + 2 * nc * nb] = np.concatenate([pb0, np.zeros_like(pb0)], axis=-1).reshape(n, -1)
-        for name, v in (("F", self.F), ("fk", self.fk), ("fb", self.fb), ("verr", self.v_err)):
-            S[:, o[name]:o[name] + nc] = v
-        S[:, o["bk"]:o["bk"] + nc * nk] = self.beta_k.reshape(n, -1)
-        S[:, o["bb"]:o["bb"] + nc * nb] = self.beta_b.reshape(n, -1)
-        return np.ascontiguousarray(P), S
+        S[:, o["bk"]:o["bk"] + nc * nk] = np.asarray(p.beta_k0, float).reshape(-1, 1)
+        S[:, o["bb"]:o["bb"] + nc * nb] = np.asarray(p.beta_b0, float).reshape(-1, 1)
+        return P, S
 
     def kernel_signals(self):
         o, nc = self._kernel_layout(), self.ctx.n_corners
@@ -364,18 +265,21 @@ class ToscanoDumas(Controller):
             out["beta_b"] = (o["bb"], o["bb"] + self.nb)
         return out
 
-    def kernel_sync(self, st):
-        n, nc, nk, nb = self.ctx.n_cars, self.ctx.n_corners, self.nk, self.nb
-        o = self._kernel_layout()
 
-        def blk(name, w=nc):
-            return np.array(st[:, o[name]:o[name] + w])
+def basis_shape(n_rules: int, umax: float, membership: str) -> tuple[int, float, np.ndarray]:
+    """(membership code, h, rule centres) of ``_basis`` for ``n_rules`` rules on [−umax, umax]: the grid m_i of
+    Eq. (16), h the triangles' half-width (one grid spacing) or the gaussians' σ of Eq. (16)."""
+    if membership == "gaussian":
+        return 2, 2 * umax / (2 * np.sqrt(2 * LN2) * (n_rules - 1)), np.linspace(-umax, umax, n_rules)
+    return (0 if n_rules == 2 else 1), 2 * umax / (n_rules - 1), np.linspace(-umax, umax, n_rules)
 
-        self.F, self.fk, self.fb, self.v_err = blk("F"), blk("fk"), blk("fb"), blk("verr")
-        self.beta_k = blk("bk", nc * nk).reshape(n, nc, nk)
-        self.beta_b = blk("bb", nc * nb).reshape(n, nc, nb)
-        if st[0, 0] != 0.0:
-            self.v_hat = blk("vhat")
-            self._v0 = blk("v0")
-            self._last = (blk("dx0"), blk("dv0"), blk("pk0", 2 * nc * nk).reshape(n, nc, 2 * nk)[..., :nk],
-                          blk("pb0", 2 * nc * nb).reshape(n, nc, 2 * nb)[..., :nb])
+
+def basis(u, n_rules: int, umax: float, membership: str, alpha_two: float) -> np.ndarray:
+    """The normalised fuzzy basis functions ψ_i(u) (the law's ``_basis``) for an array u: shape u.shape +
+    (n_rules,)."""
+    memb, h, m = basis_shape(n_rules, umax, membership)
+    u = np.asarray(u, dtype=float)
+    out = np.empty(u.size * 2 * n_rules)
+    for j, x in enumerate(u.reshape(-1)):
+        _basis(float(x), n_rules, memb, alpha_two, m, 0, h, out, 2 * n_rules * j)
+    return out.reshape(u.size, 2 * n_rules)[:, :n_rules].reshape(u.shape + (n_rules,))

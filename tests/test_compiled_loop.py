@@ -177,8 +177,8 @@ def test_progress_and_log_hooks_see_every_log_step(monkeypatch):
 
 
 def test_controller_without_kernel_data_runs_hybrid(monkeypatch):
-    """A controller class with a kernel that declines a setting (kernel_data raises NotImplementedError) is
-    called from Python at control instants, with the same results."""
+    """A controller class with a kernel that declines a setting (kernel_data raises NotImplementedError) and
+    a numpy step for it is called from Python at control instants, with the same results."""
     from suspension_sim.controllers.skyhook import Skyhook
     from suspension_sim.registry import CONTROLLERS
 
@@ -187,6 +187,12 @@ def test_controller_without_kernel_data_runs_hybrid(monkeypatch):
         class Declines(Skyhook):
             def kernel_data(self):
                 raise NotImplementedError("not for this setting")
+
+            def step(self, t, y):
+                return -self.p.c_sky * y["corner_body_vel"]
+
+            def signals(self):
+                return {}
 
     scs = _bench_like(2, controller={"type": "_test_declines_kernel", "params": {"c_sky": 2000.0}})
     sim_c, rc = _run(scs, True, monkeypatch)
