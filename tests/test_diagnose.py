@@ -14,7 +14,6 @@ import pytest
 import yaml
 
 from suspension_sim.diagnose import diagnose
-from suspension_sim.diagnose import fastsim as fs
 from suspension_sim.diagnose import truth
 from suspension_sim.diagnose.io import load_record, parse_map, record_from_arrays
 from suspension_sim.errors import ScenarioError
@@ -103,78 +102,48 @@ def test_mat_and_parquet(tmp_path):
     assert set(rec.outputs) == {"pos"}
 
 
-# ------------------------------------------------------------------------------------------------ force laws
-def _effect(name, params, n=3):
-    from suspension_sim.components import validate_params
-    from suspension_sim.effects.base import EffectContext
+# ------------------------------------------------------------------------------------------------ one physics
+def test_engine_matches_independent_truth_and_runs_an_ensemble():
+    """Linear quarter car with a force input: the search's simulator (the project's MuJoCo model, compiled
+    loop, an ensemble of parameter sets) against the scipy truth generator (noise-free), and each car of a
+    perturbed ensemble equals the same set run alone."""
+    from suspension_sim.diagnose.engine import Engine
+
+    d = truth.simulate_truth("quarter_car", 4, 1000, {}, seed=5, road_rms=0.01, force_rms=300.0, noise=0.0,
+                             outputs=["body_acc", "susp_travel", "tire_force", "wheel_acc"])
+    eng = Engine("quarter_car", {"road": d["road"], "force": d["force"]}, 1e-3, [], truth.QC_NOMINAL)
+    sets = [{"damping": 1000.0}, {"damping": 1400.0}, {"damping": 1000.0, "sprung_mass": 330.0}]
+    out = eng.run(sets)
+    for c in ("body_acc", "susp_travel", "tire_force", "wheel_acc"):
+        y = d["_clean"][c]
+        err = np.sqrt(np.mean((out[0, :, eng.channels.index(c)] - y) ** 2)) / np.std(y)
+        assert err < 0.01, (c, err)
+        assert np.sqrt(np.mean((out[1, :, eng.channels.index(c)] - y) ** 2)) / np.std(y) > 0.02
+    alone = eng.run([sets[1]])
+    assert np.allclose(alone[0], out[1], rtol=0, atol=1e-12 * np.abs(out[1]).max())
+    # a heavier car is not re-levelled: it sags by Δm·g/k (travel zeroed at the nominal ride height)
+    j = eng.channels.index("susp_travel")
+    sag = np.mean(out[2, 2000:, j] - out[0, 2000:, j])
+    assert abs(sag - (-40.0 * 9.81 / 16812.0)) < 0.15 * 40.0 * 9.81 / 16812.0, sag
+
+
+def test_candidates_come_from_the_registry_declarations():
+    """Every registered effect with a free-parameter declaration is a candidate (no list in diagnose), the
+    ideal actuator's declared parameters give actuator_lag and actuator_delay, and a half car also gets
+    each effect on one axle."""
+    from suspension_sim.diagnose.candidates import library
+    from suspension_sim.diagnose.model import effect_candidates, load_model
     from suspension_sim.registry import EFFECTS
 
-    cls = EFFECTS.get(name)
-    z = np.ones((n, 1))
-    ctx = EffectContext(n, ["single"], 1e-3, 2500 * z, 3000 * z, 16812 * z, 1000 * z, 190000 * z, 0 * z)
-    return cls(validate_params(cls.Params, params, "p"), ctx)
-
-
-@pytest.mark.parametrize("name,params,slots", [
-    ("coulomb_friction", {"force": 120.0, "v_eps": 0.004}, {fs.CF: 120.0, fs.VEPS: 0.004}),
-    ("quadratic_damping", {"c_v": 900.0}, {fs.CV: 900.0}),
-    ("asymmetric_damping", {"c_comp": 300.0, "c_reb": 1200.0}, {fs.CCOMP: 300.0, fs.CREB: 1200.0}),
-    ("bump_stop", {"gap": 0.02, "stiffness": 5e4}, {fs.GAP: 0.02, fs.KSTOP: 5e4}),
-    ("cubic_stiffness", {"k3": -2e6}, {fs.K3: -2e6}),
-])
-def test_fast_force_laws_match_effect_classes(name, params, slots):
-    rng = np.random.default_rng(0)
-    s, v = rng.normal(0, 0.03, (3, 1)), rng.normal(0, 0.2, (3, 1))
-    P = fs.default_params()
-    P[fs.K] = P[fs.C] = 0.0
-    for k, val in slots.items():
-        P[k] = val
-    eff = _effect(name, params)
-    ref = eff.force(s, v, 0.0, 1e-3)
-    got = np.array([[fs.susp_force(P, float(a), float(b), 0.0, 0.0)] for a, b in zip(s[:, 0], v[:, 0])])
-    assert np.allclose(got, ref, rtol=1e-12, atol=1e-9)
-
-
-@pytest.mark.parametrize("name,params", [("hysteresis", {"force": 150.0, "x_y": 0.003}),
-                                         ("backlash", {"stiffness": 7000.0, "play": 0.004})])
-def test_stateful_effects_match_fast_kernel_and_formula(name, params):
-    t = np.linspace(0, 2, 2001)
-    s = 0.01 * np.sin(2 * np.pi * 1.3 * t) + 0.004 * np.sin(2 * np.pi * 4.1 * t)
-    eff = _effect(name, params, n=1)
-    F = np.array([eff.force(np.array([[x]]), np.zeros((1, 1)), 0.0, 1e-3)[0, 0] for x in s])
-    w = y = 0.0
-    ref = []
-    for i, x in enumerate(s):
-        if name == "hysteresis":
-            if i:
-                w = fs.bouc_wen_step(w, x - s[i - 1], params["x_y"])
-            ref.append(-params["force"] * w)
-        else:
-            y = fs.play_step(y, x, params["play"])
-            ref.append(-params["stiffness"] * y)
-    assert np.allclose(F, ref, atol=1e-9)
-    if name == "hysteresis":  # saturates at ±F_h, and the loop encloses area (energy loss)
-        assert np.max(np.abs(F)) <= params["force"] + 1e-9 and np.max(np.abs(F)) > 0.9 * params["force"]
-        assert abs(np.trapezoid(F, s)) > 0.1 * params["force"] * 0.01
-    else:  # the force stays flat while the play is taken up after each reversal
-        rev = np.nonzero(np.diff(np.sign(np.diff(s))))[0] + 1
-        k = rev[0]
-        j = k + np.argmax(np.abs(s[k:] - s[k]) > 1.5 * params["play"])
-        assert np.ptp(F[k:k + 5]) < 1e-9 and abs(F[j] - F[k]) > 0
-
-
-def test_fast_simulator_matches_independent_truth():
-    """Linear quarter car: the fast simulator against the scipy truth generator (noise-free)."""
-    d = truth.simulate_truth("quarter_car", 4, 1000, {}, seed=5, road_rms=0.01, noise=0.0,
-                             outputs=["body_acc", "susp_travel", "tire_force"])
-    rec = _record("quarter_car", d, ["body_acc", "susp_travel", "tire_force"])
-    from suspension_sim.diagnose.calibrate import Problem
-    from suspension_sim.diagnose.model import load_model
-
-    spec = load_model({**QC, "params": {**QC["params"], "damping": 1000}})
-    prob = Problem(rec, omega_max=Problem.omega_max(spec))
-    nr = prob.nrmse(prob.simulate(spec.P), 0, len(rec))
-    assert max(nr.values()) < 0.01, nr
+    declared = {n for n in EFFECTS.names() if getattr(EFFECTS.get(n), "free_parameters", None) is not None}
+    assert declared == set(effect_candidates()) and {"coulomb_friction", "bump_stop", "hysteresis"} <= declared
+    assert "varying_stiffness" not in declared  # time-varying: no declaration, no candidate
+    names = {c.name for c in library(load_model(QC))}
+    assert declared | {"actuator_lag", "actuator_delay", "parameter:sprung_mass"} <= names
+    half = {c.name for c in library(load_model({"model": "half_car"}))}
+    assert {"bump_stop@front", "bump_stop@rear", "bump_stop"} <= half
+    full = {c.name for c in library(load_model({"model": "full_car"}))}
+    assert {"hysteresis@front", "hysteresis@rear"} <= full
 
 
 # ------------------------------------------------------------------------------------------------ workflow
@@ -203,7 +172,7 @@ def test_coulomb_friction_named_alone_quarter_car(tmp_path):
     assert blk["vehicle"]["effects"][0]["type"] == "coulomb_friction"
     conf = rep["mujoco_confirmation"]
     assert conf["status"] == "ok"
-    assert max(c["nrmse_mujoco_vs_fast"] for c in conf["channels"].values()) < 0.05
+    assert max(c["nrmse_replay_vs_search"] for c in conf["channels"].values()) < 0.05
     assert (tmp_path / "model.fitted.xml").exists()
     json.loads((tmp_path / "report.json").read_text())
 

@@ -7,6 +7,7 @@ import numpy as np
 from pydantic import Field
 
 from ..components import Params
+from ..free_parameters import FreeParameter
 from ..registry import ACTUATORS
 from ._common import kernel_pack, optional_array
 from .base import Actuator
@@ -68,6 +69,19 @@ class IdealActuator(Actuator):
 
     Params = IdealParams
     command_unit = "N"
+    # what `suspension-sim diagnose` may fit between a measured force command and the force (one candidate
+    # each; the delay is fitted as a continuous shift of the measured input, see diagnose/engine.py)
+    free_parameters = {
+        "time_constant": FreeParameter("1", init=0.005, lo=1e-5, hi=1.0, starts=(0.003, 0.02), candidate="actuator_lag"),
+        "delay": FreeParameter("1", init=0.005, lo=0.0, hi=0.5, starts=(0.002, 0.015), candidate="actuator_delay",
+                               target="input.delay"),
+    }
+    signatures = {
+        "actuator_lag": "residual coherent with the force input above 1/(2πτ); high-frequency force attenuated, "
+                        "−45° at the corner",
+        "actuator_delay": "residual largest where the force command changes fast; phase lag growing linearly with "
+                          "frequency (−360°·f·d)",
+    }
 
     def reset(self):
         n, c = self.ctx.n_cars, self.ctx.n_corners

@@ -2,7 +2,7 @@
 where it fails, name the missing effect from a library of candidates, add it, and show the gap shrink.
 
 Modules: :mod:`.io` (reading records), :mod:`.model` (the model and its free parameters),
-:mod:`.fastsim` (compiled simulator for the search), :mod:`.calibrate` (output-error fitting),
+:mod:`.engine` (the project's simulator, batched over parameter sets), :mod:`.calibrate` (output-error fitting),
 :mod:`.locate` (residual analysis), :mod:`.candidates` (the effect library), :mod:`.select` (greedy forward
 selection), :mod:`.report` (outputs).  :mod:`.truth` generates synthetic test records only.
 

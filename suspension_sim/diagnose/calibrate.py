@@ -16,129 +16,94 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
-from . import fastsim as fs
+from .engine import Engine, output_names
 from .io import Record
-from .model import ModelSpec
+from .model import ModelSpec, is_position
 
 
 class Problem:
-    """A record prepared for simulation: input arrays, output channels, weights and an initial state."""
+    """A record prepared for simulation: the inputs, the output channels, their weights, which channels get
+    a free offset (eliminated in closed form: the mean residual over the fitted window), and one
+    :class:`~.engine.Engine` per model structure."""
 
-    def __init__(self, rec: Record, max_substep: float = 1e-3, skip: int = 0, omega_max: float = 0.0):
+    def __init__(self, rec: Record, spec: ModelSpec | None = None, skip: int = 0, max_dt: float = 5e-4):
         self.rec = rec
         self.kind = rec.kind
-        n = len(rec)
         self.dt = rec.dt
-        # RK4 sub-steps: h <= max_substep and omega_max·h <= 0.25 (fastest natural frequency of the model)
-        h = min(max_substep, 0.25 / omega_max) if omega_max > 0 else max_substep
-        self.nsub = max(1, int(np.ceil(self.dt / h - 1e-9)))
-        self.parallel = True
-        ins = rec.inputs
-        if rec.kind == "damper":
-            road, roaddot = ins["disp"], ins["vel"]
-        elif rec.kind == "half_car":
-            road = ins["road_front"]
-            roaddot = np.gradient(road, self.dt)
-        else:
-            road = ins.get("road", ins.get("base", np.zeros(n)))
-            roaddot = np.gradient(road, self.dt) if np.any(road) else np.zeros(n)
-        force = ins.get("force", ins.get("force_front", np.zeros(n)))
-        self.inputs = {"road": np.ascontiguousarray(road, float), "roaddot": np.ascontiguousarray(roaddot, float),
-                       "force": np.ascontiguousarray(force, float)}
-        self.has_force = "force" in ins and bool(np.any(ins["force"]))
-        if rec.kind == "half_car":
-            rr = np.ascontiguousarray(ins["road_rear"], float)
-            self.inputs.update(road_r=rr, roaddot_r=np.ascontiguousarray(np.gradient(rr, self.dt)),
-                               force_r=np.ascontiguousarray(ins.get("force_rear", np.zeros(n)), float))
-            self.has_force = any(k in ins and bool(np.any(ins[k])) for k in ("force_front", "force_rear"))
-        chans = fs.CHANNELS[rec.kind]
+        self.max_dt = max_dt
+        ins = dict(rec.inputs)
+        self.inputs = {k: np.ascontiguousarray(v, float) for k, v in ins.items()}
+        self.has_force = any(k == "force" or k.startswith("force_") for k in ins if np.any(ins[k]))
+        chans = output_names(rec.kind)
         self.channels = [c for c in chans if c in rec.outputs]
         self.col = np.array([chans.index(c) for c in self.channels])
         self.Y = np.stack([rec.outputs[c] for c in self.channels], axis=1)
         self.scale = np.maximum(self.Y.std(axis=0), 1e-12)
         self.skip = skip
-        self.x0 = initial_state(rec, self.dt)
+        self.offset_mask = np.zeros(len(self.channels), bool)
+        if spec is not None:
+            self.set_offsets(spec)
+        self._engines: dict = {}
 
-    @staticmethod
-    def omega_max(spec) -> float:
-        """Fastest natural frequency (rad/s) of the nominal model (for the sub-step)."""
-        P = spec.P
-        if spec.kind == "quarter_car":
-            mr = P[fs.MS] * P[fs.MU] / (P[fs.MS] + P[fs.MU])
-            return float(np.sqrt((P[fs.KT] + P[fs.K]) / P[fs.MU]) + np.sqrt(P[fs.K] / mr))
-        if spec.kind == "sdof":
-            return float(np.sqrt(max(P[fs.K], 0) / P[fs.MS]))
-        if spec.kind == "half_car":
-            m = 0.5 * P[fs.MS]
-            return float(max(np.sqrt((P[kt] + P[k]) / P[mu]) + np.sqrt(P[k] * (m + P[mu]) / (m * P[mu]))
-                             for k, kt, mu in ((fs.K, fs.KT, fs.MU), (fs.K_R, fs.KT_R, fs.MU_R))))
-        return 0.0
+    def set_offsets(self, spec: ModelSpec):
+        """Channels with a free offset: non-position channels (sensor bias) unless ``offsets: false``; the
+        position channels when they are zeroed at the measured ride height."""
+        self.offset_mask = np.array([(spec.position_zero == "measured") if is_position(c) else spec.offsets
+                                     for c in self.channels], bool)
+        if self.kind == "damper":
+            self.offset_mask[:] = spec.offsets
 
-    def simulate(self, P, a: int = 0, b: int | None = None) -> np.ndarray:
+    def engine(self, spec: ModelSpec) -> Engine:
+        from .engine import structure_key
+
+        key = structure_key(self.kind, [(e.label, e.type, e.corners, e.fixed) for e in spec.effects])
+        eng = self._engines.get(key)
+        if eng is None:
+            effects = [(e.label, e.type, e.corners, e.fixed) for e in spec.effects]
+            eng = self._engines[key] = Engine(self.kind, self.inputs, self.dt, effects, spec.P, lag=spec.lag,
+                                              max_dt=self.max_dt)
+        return eng
+
+    def simulate(self, spec: ModelSpec, P: dict, a: int = 0, b: int | None = None) -> np.ndarray:
         """Simulated output channels (N, n_ch) from sample 0 to b (the state is carried from the start)."""
-        b = len(self.rec) if b is None else b
-        ins = {k: v[:b] for k, v in self.inputs.items()}
-        out = fs.run(self.kind, P, ins, self.dt, self.nsub, self.x0)
-        return out[a:, self.col]
+        return self.simulate_batch(spec, [P], b)[0, a:]
 
-    def simulate_batch(self, Pm, b: int | None = None) -> np.ndarray:
+    def simulate_batch(self, spec: ModelSpec, Ps: list, b: int | None = None) -> np.ndarray:
         b = len(self.rec) if b is None else b
-        ins = {k: v[:b] for k, v in self.inputs.items()}
-        out = fs.run_batch(self.kind, Pm, ins, self.dt, self.nsub, self.x0, parallel=self.parallel)
+        out = self.engine(spec).run(list(Ps), b, [(e.label, e.type, e.corners, e.fixed) for e in spec.effects])
         return out[:, :, self.col]
 
-    def nrmse(self, sim, a: int, b: int) -> dict[str, float]:
+    def fit_offsets(self, sim, a: int, b: int) -> np.ndarray:
+        """The free offsets (added to the simulation) that match the data on [a, b) in the mean."""
         a = max(a, self.skip)
-        e = sim[a:b] - self.Y[a:b]
+        o = np.mean(self.Y[a:b] - sim[a:b], axis=0)
+        return np.where(self.offset_mask, o, 0.0)
+
+    def nrmse(self, sim, a: int, b: int, offsets=None) -> dict[str, float]:
+        a = max(a, self.skip)
+        o = self.fit_offsets(sim, a, b) if offsets is None else offsets
+        e = sim[a:b] + o - self.Y[a:b]
         return {c: float(np.sqrt(np.mean(e[:, i] ** 2)) / self.scale[i]) for i, c in enumerate(self.channels)}
 
-    def rmse(self, sim, a: int, b: int) -> dict[str, float]:
+    def rmse(self, sim, a: int, b: int, offsets=None) -> dict[str, float]:
         a = max(a, self.skip)
-        e = sim[a:b] - self.Y[a:b]
+        o = self.fit_offsets(sim, a, b) if offsets is None else offsets
+        e = sim[a:b] + o - self.Y[a:b]
         return {c: float(np.sqrt(np.mean(e[:, i] ** 2))) for i, c in enumerate(self.channels)}
-
-
-def initial_state(rec: Record, dt: float) -> np.ndarray:
-    """State at the first sample from measured positions where available (velocities from a one-sided
-    second-order difference), else rest at equilibrium."""
-    o = rec.outputs
-
-    def pv(y):
-        # local quadratic fit over the first samples (noise-robust position and velocity at t = 0)
-        n0 = int(min(max(10, len(y) // 200), 50, len(y)))
-        tt = np.arange(n0) * dt
-        c = np.polyfit(tt, y[:n0], 2)
-        return float(c[2]), float(c[1])
-
-    if rec.kind == "half_car":
-        return np.zeros(8)  # the record starts at rest (initial-state estimation not implemented for a half car)
-    x = np.zeros(4)
-    if rec.kind == "quarter_car":
-        if "body_pos" in o:
-            x[0], x[1] = pv(o["body_pos"])
-        if "wheel_pos" in o:
-            x[2], x[3] = pv(o["wheel_pos"])
-        elif "body_pos" in o and "susp_travel" in o:
-            x[2], x[3] = pv(o["body_pos"] - o["susp_travel"])
-    elif rec.kind == "sdof":
-        if "pos" in o:
-            x[0], x[1] = pv(o["pos"])
-        if "vel" in o:
-            x[1] = float(o["vel"][0])
-    return x
 
 
 @dataclass
 class FitResult:
     spec: ModelSpec
     x: np.ndarray
-    P: np.ndarray
+    P: dict
     cost: float  # mean over channels of NRMSE² on the fitted window
     n: int
     ci95: dict = field(default_factory=dict)
     std: dict = field(default_factory=dict)
     nfev: int = 0
     success: bool = True
+    offsets: np.ndarray | None = None  # free channel offsets fitted on the training window
 
     @property
     def params(self) -> dict[str, float]:
@@ -154,23 +119,25 @@ class FitResult:
 def _residual_fn(prob: Problem, spec: ModelSpec, a: int, b: int, xs):
     w = 1.0 / (prob.scale * np.sqrt((b - max(a, prob.skip)) * len(prob.channels)))
     a = max(a, prob.skip)
+    mask = prob.offset_mask
 
     def resid_of(sim):
-        return ((sim[a:b] - prob.Y[a:b]) * w).ravel()
+        e = sim[a:b] - prob.Y[a:b]
+        if mask.any():
+            e = e - np.where(mask, e.mean(axis=0), 0.0)
+        return (e * w).ravel()
 
     def fun(z):
         P = spec.vector(z * xs)
-        return resid_of(prob.simulate(P, 0, b))
+        return resid_of(prob.simulate(spec, P, 0, b))
 
     def jac(z):
         x = z * xs
         hs = 1e-4 * np.maximum(np.abs(x), xs) / xs
         Z = np.repeat(z[None, :], len(z) + 1, axis=0)
         for i in range(len(z)):
-            # step inward near an upper bound
             Z[i + 1, i] += hs[i]
-        Pm = np.stack([spec.vector(zz * xs) for zz in Z])
-        sims = prob.simulate_batch(Pm, b)
+        sims = prob.simulate_batch(spec, [spec.vector(zz * xs) for zz in Z], b)
         r0 = resid_of(sims[0])
         J = np.empty((r0.size, len(z)))
         for i in range(len(z)):
@@ -184,9 +151,10 @@ def fit(prob: Problem, spec: ModelSpec, a: int, b: int, starts: list[np.ndarray]
         max_nfev: int = 60) -> FitResult:
     """Fit ``spec``'s free parameters on samples [a, b) (simulating from sample 0)."""
     if not spec.free:
-        sim = prob.simulate(spec.P, 0, b)
+        sim = prob.simulate(spec, spec.P, 0, b)
         cost = float(np.mean(np.square(list(prob.nrmse(sim, a, b).values()))))
-        return FitResult(spec, np.zeros(0), spec.P.copy(), cost, b - max(a, prob.skip))
+        return FitResult(spec, np.zeros(0), dict(spec.P), cost, b - max(a, prob.skip),
+                         offsets=prob.fit_offsets(sim, a, b))
     xs = np.array([max(f.scale, 1e-12) for f in spec.free])
     lo = np.array([f.lo for f in spec.free]) / xs
     hi = np.array([f.hi for f in spec.free]) / xs
@@ -210,7 +178,9 @@ def fit(prob: Problem, spec: ModelSpec, a: int, b: int, starts: list[np.ndarray]
     r = best.fun
     cost = float(2 * best.cost)  # = mean NRMSE² over channels (residuals are pre-normalised)
     n = b - max(a, prob.skip)
-    out = FitResult(spec, x, spec.vector(x), cost / 1.0, n, nfev=best.nfev, success=best.success)
+    P = spec.vector(x)
+    out = FitResult(spec, x, P, cost / 1.0, n, nfev=best.nfev, success=best.success,
+                    offsets=prob.fit_offsets(prob.simulate(spec, P, 0, b), a, b))
     # covariance: residuals r_i = e_i * w; sigma² per normalised residual
     J = best.jac * 1.0
     nres = r.size

@@ -35,6 +35,29 @@ VOCAB: dict[str, dict[str, list[str]]] = {
                  "required_inputs": ["road_front", "road_rear"]},
     "damper": {"inputs": ["disp", "vel"], "outputs": ["force"], "required_inputs": ["disp"]},
 }
+
+
+class _Vocab(dict):
+    """The vocabulary of every model kind: the fixed ones above, and any registered vehicle's from its
+    corners (``body_acc_fl``, ``road_fl``, ..., ``pitch``, ``roll``) on first use."""
+
+    def __missing__(self, kind):
+        from ..registry import VEHICLES
+        from .engine import input_names, output_names
+
+        if kind not in VEHICLES.names():
+            raise KeyError(kind)
+        ins, req = input_names(kind)
+        v = self[kind] = {"inputs": ins, "outputs": output_names(kind), "required_inputs": req}
+        return v
+
+    def __contains__(self, kind):
+        from ..registry import VEHICLES
+
+        return dict.__contains__(self, kind) or kind in VEHICLES.names()
+
+
+VOCAB = _Vocab(VOCAB)
 UNITS = {"road": "m", "force": "N", "body_acc": "m/s²", "wheel_acc": "m/s²", "susp_travel": "m", "body_pos": "m",
          "wheel_pos": "m", "tire_force": "N", "pos": "m", "vel": "m/s", "acc": "m/s²", "base": "m", "disp": "m",
          "pitch": "rad", "pitch_rate": "rad/s"}

@@ -15,7 +15,6 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import coherence, welch
 
-from . import fastsim as fs
 
 
 def windows(t, resid, channels, floors, n_win: int = 20) -> dict:
@@ -61,25 +60,25 @@ def spectra(resid, inputs: dict, channels, floors, fs_hz: float) -> dict:
     return out
 
 
-def force_map(prob, P: np.ndarray, floors: dict, a: int, b: int, nbins: int = 12) -> dict | None:
+def force_map(prob, P: dict, floors: dict, a: int, b: int, nbins: int = 12, effects=()) -> dict | None:
     """Residual suspension force over travel × travel rate on samples [a, b) (None when it cannot be formed)."""
     rec = prob.rec
     o, dt = rec.outputs, rec.dt
     kind = rec.kind
-    if kind == "half_car":
-        return None  # a corner's force does not follow from its body acceleration alone (pitch couples them)
+    if kind not in ("quarter_car", "sdof", "damper"):
+        return None  # a corner's force does not follow from its body acceleration alone (pitch/roll couple them)
     if kind == "quarter_car":
         if "body_acc" not in o or "susp_travel" not in o:
             return None
         s = o["susp_travel"][a:b]
         acc = o["body_acc"][a:b]
-        m = P[fs.MS]
+        m = P["sprung_mass"]
         sig_acc = floors.get("body_acc", {}).get("value", 0.0)
         note = "m_s·(measured body acceleration) − model suspension force at the measured travel and rate"
     elif kind == "sdof":
         if "pos" not in o:
             return None
-        base = prob.inputs["road"][a:b]
+        base = prob.inputs.get("base", np.zeros(len(rec)))[a:b]
         s = o["pos"][a:b] - base
         if "acc" in o:
             acc = o["acc"][a:b]
@@ -90,9 +89,9 @@ def force_map(prob, P: np.ndarray, floors: dict, a: int, b: int, nbins: int = 12
             # noise of (x[k+2] − 2x[k] + x[k−2]) / (4 dt²) for white position noise σ
             sig_acc = floors.get("pos", {}).get("value", 0.0) * np.sqrt(6) / (4 * dt ** 2)
             note = "m·(position differentiated twice) − model force"
-        m = P[fs.MS]
+        m = P["sprung_mass"]
     else:
-        s = prob.inputs["road"][a:b]
+        s = prob.inputs["disp"][a:b]
         acc = None
         m = 0.0
         sig_acc = floors.get("force", {}).get("value", 0.0)
@@ -109,14 +108,20 @@ def force_map(prob, P: np.ndarray, floors: dict, a: int, b: int, nbins: int = 12
             s = filtfilt(bb, aa, s)
         v = np.gradient(s, dt)
     else:
-        v = prob.inputs["roaddot"][a:b]
-    Fsusp = np.array([fs.susp_force(P, si, vi, 0.0, 0.0) for si, vi in zip(s, v)]) if len(s) < 5000 else \
-        _susp_force_vec(P, s, v)
+        v = prob.inputs["vel"][a:b] if "vel" in prob.inputs else np.gradient(s, dt)
+    from .engine import effect_force
+
+    Fsusp = -P["spring_stiffness"] * s - P["damping"] * v
+    # stateful effects (hysteresis, backlash) are left out of the map: they are what the map should reveal
+    eff = [e for e in effects if e[1] not in ("hysteresis", "backlash", "tire_liftoff")]
+    if eff:
+        Fsusp = Fsusp + effect_force(eff, P, s, v, dt)
     if kind == "damper":
         resid = o["force"][a:b] - (-Fsusp)
         sig = sig_acc
     else:
-        fa = P[fs.GAIN] * prob.inputs["force"][a:b] + P[fs.OFFS] if prob.has_force else 0.0
+        fa = P.get("input.gain", 1.0) * prob.inputs["force"][a:b] + P.get("input.offset", 0.0) \
+            if prob.has_force and "force" in prob.inputs else 0.0
         resid = m * acc - (Fsusp + fa)
         sig = m * sig_acc
     se = np.quantile(s, [0.01, 0.99])
@@ -150,16 +155,3 @@ def _profile(x, r, n):
     c = np.bincount(k, minlength=len(e) - 1)
     m = np.bincount(k, weights=r, minlength=len(e) - 1) / np.maximum(c, 1)
     return {"x": 0.5 * (e[1:] + e[:-1]), "mean": m, "count": c}
-
-
-def _susp_force_vec(P, s, v):
-    F = -P[fs.K] * s - P[fs.C] * v
-    if P[fs.CF]:
-        F -= P[fs.CF] * np.tanh(v / P[fs.VEPS])
-    F -= P[fs.CV] * v * np.abs(v)
-    F -= np.where(v > 0, P[fs.CREB], P[fs.CCOMP]) * v
-    if P[fs.KSTOP]:
-        F += P[fs.KSTOP] * (np.maximum(-P[fs.GAP] - s, 0) - np.maximum(s - P[fs.GAP], 0))
-    F -= P[fs.K3] * s ** 3
-    # stateful effects (hysteresis, backlash) are left out of the map: they are what the map should reveal
-    return F

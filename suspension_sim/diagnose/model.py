@@ -1,16 +1,26 @@
-"""The model being diagnosed: nominal parameters (fixed or free), known effects, and the mapping between the
-``vehicle`` block of a scenario and the parameter vector of :mod:`.fastsim`.
+"""The model being diagnosed: nominal parameters (fixed or free), known effects, where the position sensors
+are zeroed, and the named parameter values that :mod:`.engine` simulates.
 
 MODEL.yaml is the ``vehicle`` block of a scenario (``model``, ``params``, ``effects``), or a whole scenario
-with one.  A parameter is *free* (calibrated) when it is absent, written ``free`` (or ``?``), or written as
-``{value: 2.1, free: true}``; a plain number is known and fixed.  Two optional keys describe the measured
-force input (they are not vehicle parameters): ``inputs: {force_gain: 1.0, force_offset: free}`` (the
-actuator force is ``gain·u + offset``; by default the gain is 1 and the offset is free when a force input is
-measured).  ``model: damper`` describes a force element alone (params ``spring_stiffness``, ``damping``).
-``model: half_car`` takes the parameters of :mod:`suspension_sim.vehicles.half_car` (per corner with
-``_front``/``_rear``; ``cg_height`` is kept but does not enter the diagnosis).  For a half car the geometry
-``a``, ``b`` and ``pitch_inertia`` are free when absent like everything else: give them when known.  Added
-effects act at both corners with shared parameters (one candidate = one effect on the whole axle pair).
+with one.  Any registered vehicle model can be diagnosed (``suspension-sim list models``), and ``model:
+damper`` describes a force element alone (params ``spring_stiffness``, ``damping``).
+
+- A parameter is *free* (calibrated) when it is absent, written ``free`` (or ``?``), or written as
+  ``{value: 2.1, free: true}``; a plain number is known and fixed.  Geometry (axle distances, tracks, c.g.
+  height: what MuJoCo cannot change without rebuilding the car) is fixed at the model's default when absent;
+  write ``free`` to fit it.
+- Bounds: a free parameter given with a value stays within ``bounds_factor`` (default 3) of it, both ways;
+  a stated-known parameter that the search frees (``parameter:<name>``) too.  ``{value, free, lo, hi}``
+  widens or narrows them.  Masses, inertias and stiffnesses stay positive.
+- ``inputs: {force_gain: 1.0, force_offset: free}``: the actuator force is ``gain·u + offset`` of the
+  measured force input (by default the gain is 1 and the offset is free when a force input is measured).
+- ``position_zero: nominal | measured`` (default ``nominal``): where the position sensors (travel, body and
+  wheel position, pitch, roll) read zero.  ``nominal``: at the nominal model's ride height, so a heavier
+  car shows as sag and a mass can be named from it; ``measured``: at the car's actual ride height (each
+  position channel then gets a free offset).  Other channels (accelerations, rates, forces) always get a
+  free offset (sensor bias); ``offsets: false`` switches that off.
+- ``effects``: known effects, each with ``type``, ``corners`` (default all) and ``params`` (free ones as
+  above).
 """
 from __future__ import annotations
 
@@ -21,87 +31,60 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ScenarioError
-from . import fastsim as fs
+from ..registry import EFFECTS, VEHICLES
 
-NOMINAL = {
-    "quarter_car": {"sprung_mass": fs.MS, "unsprung_mass": fs.MU, "spring_stiffness": fs.K, "damping": fs.C,
-                    "tire_stiffness": fs.KT, "tire_damping": fs.CT},
-    "sdof": {"sprung_mass": fs.MS, "spring_stiffness": fs.K, "damping": fs.C},
-    "damper": {"spring_stiffness": fs.K, "damping": fs.C},
-    # half car: nominal parameters per corner (as in suspension_sim/vehicles/half_car.py); effects are shared
-    "half_car": {"sprung_mass": fs.MS, "pitch_inertia": fs.IYY, "a": fs.HA, "b": fs.HB,
-                 "unsprung_mass_front": fs.MU, "unsprung_mass_rear": fs.MU_R,
-                 "spring_stiffness_front": fs.K, "spring_stiffness_rear": fs.K_R,
-                 "damping_front": fs.C, "damping_rear": fs.C_R,
-                 "tire_stiffness_front": fs.KT, "tire_stiffness_rear": fs.KT_R,
-                 "tire_damping_front": fs.CT, "tire_damping_rear": fs.CT_R},
-}
-DEFAULTS = {
-    "quarter_car": {"sprung_mass": 290.0, "unsprung_mass": 59.0, "spring_stiffness": 16812.0, "damping": 1000.0,
-                    "tire_stiffness": 190000.0, "tire_damping": 0.0},
-    "sdof": {"sprung_mass": 250.0, "spring_stiffness": 5000.0, "damping": 250.0},
-    "damper": {"spring_stiffness": 0.0, "damping": 1000.0},
-    "half_car": {"sprung_mass": 500.0, "pitch_inertia": 1125.0, "a": 1.5, "b": 1.5, "unsprung_mass_front": 45.0,
-                 "unsprung_mass_rear": 45.0, "spring_stiffness_front": 17000.0, "spring_stiffness_rear": 17000.0,
-                 "damping_front": 1250.0, "damping_rear": 1250.0, "tire_stiffness_front": 100000.0,
-                 "tire_stiffness_rear": 100000.0, "tire_damping_front": 0.0, "tire_damping_rear": 0.0},
-}
-POSITIVE = {"sprung_mass", "unsprung_mass", "tire_stiffness", "pitch_inertia", "a", "b", "unsprung_mass_front",
-            "unsprung_mass_rear", "tire_stiffness_front", "tire_stiffness_rear"}
-# vehicle parameters that do not enter the diagnosed dynamics (kept in the fitted model as given)
-IGNORED = {"half_car": {"cg_height"}}
-# effects of the vehicle block we can represent in the fast simulator: type -> {param: slot}
-EFFECT_SLOTS = {
-    "coulomb_friction": {"force": fs.CF, "v_eps": fs.VEPS},
-    "quadratic_damping": {"c_v": fs.CV},
-    "asymmetric_damping": {"c_comp": fs.CCOMP, "c_reb": fs.CREB},
-    "bump_stop": {"gap": fs.GAP, "stiffness": fs.KSTOP},
-    "cubic_stiffness": {"k3": fs.K3},
-    "tire_liftoff": {},
-    "hysteresis": {"force": fs.BWF, "x_y": fs.BWX},
-    "backlash": {"stiffness": fs.BLK, "play": fs.BLB},
-}
-EFFECT_DEFAULTS = {"coulomb_friction": {"v_eps": 0.01}, "hysteresis": {"x_y": 0.01}}
+DAMPER_DEFAULTS = {"spring_stiffness": 0.0, "damping": 1000.0}
+POSITIVE_WORDS = ("mass", "inertia", "tire_stiffness")
+POSITION_CHANNELS = ("susp_travel", "body_pos", "wheel_pos", "pos", "pitch", "roll")
+
+
+def is_position(channel: str) -> bool:
+    return channel in ("pitch", "roll") or any(channel.startswith(p) for p in POSITION_CHANNELS[:5])
 
 
 @dataclass
 class FreeParam:
-    """A fitted parameter: ``name`` (as reported), how its value ``x`` sets slots of the parameter vector."""
+    """A fitted parameter: its ``name`` (the key of the parameter dict), start, bounds and scale."""
 
     name: str
-    slot: int
     init: float
     lo: float = -np.inf
     hi: float = np.inf
     scale: float = 1.0
-    signed_pair: int | None = None  # x < 0 goes to this slot as −x, x > 0 to ``slot`` (asymmetric damping)
+    size: bool = False  # measures the strength of an added effect (pruned when indistinguishable from 0)
 
-    def apply(self, P: np.ndarray, x: float) -> None:
-        if self.signed_pair is None:
-            P[self.slot] = x
-        else:
-            P[self.slot] = max(x, 0.0)
-            P[self.signed_pair] = max(-x, 0.0)
+
+@dataclass
+class EffectEntry:
+    label: str  # unique name in the model ("bump_stop", "bump_stop@front")
+    type: str  # registered effect
+    corners: object = "all"  # "all" or a list of corner names
+    fixed: dict = field(default_factory=dict)  # non-numeric / fixed settings
 
 
 @dataclass
 class ModelSpec:
     kind: str
-    P: np.ndarray  # base parameter vector (fixed values and starting values)
+    P: dict  # every numeric parameter by name (vehicle, "<label>.<param>", "actuator.time_constant", "input.*")
     free: list[FreeParam]
-    effects: list[str] = field(default_factory=list)  # effect types present (known or added)
-    fixed_nominal: list[str] = field(default_factory=list)  # nominal params the model says are known
+    effects: list[EffectEntry] = field(default_factory=list)
+    fixed_nominal: list[str] = field(default_factory=list)  # vehicle params the model says are known
     source: str = ""
     raw: dict = field(default_factory=dict)
+    position_zero: str = "nominal"
+    offsets: bool = True
+    bounds_factor: float = 3.0
+    lag: bool = False  # the actuator lag is part of the model
 
     def copy(self) -> "ModelSpec":
-        return ModelSpec(self.kind, self.P.copy(), [copy.copy(f) for f in self.free], list(self.effects),
-                         list(self.fixed_nominal), self.source, copy.deepcopy(self.raw))
+        return ModelSpec(self.kind, dict(self.P), [copy.copy(f) for f in self.free],
+                         [copy.deepcopy(e) for e in self.effects], list(self.fixed_nominal), self.source,
+                         copy.deepcopy(self.raw), self.position_zero, self.offsets, self.bounds_factor, self.lag)
 
-    def vector(self, x) -> np.ndarray:
-        P = self.P.copy()
+    def vector(self, x) -> dict:
+        P = dict(self.P)
         for f, v in zip(self.free, x):
-            f.apply(P, float(v))
+            P[f.name] = float(v)
         return P
 
     @property
@@ -111,15 +94,51 @@ class ModelSpec:
     def names(self) -> list[str]:
         return [f.name for f in self.free]
 
+    @property
+    def effect_types(self) -> list[str]:
+        return [e.label for e in self.effects]
 
-def _is_free(v) -> tuple[bool, float | None]:
+    def structure(self) -> tuple:
+        return tuple((e.label, e.type, e.corners if e.corners == "all" else tuple(e.corners),
+                      tuple(sorted(e.fixed.items()))) for e in self.effects) + (("lag", self.lag),)
+
+
+def vehicle_params(kind: str) -> dict[str, float]:
+    """Numeric vehicle parameters and defaults of a model kind."""
+    if kind == "damper":
+        return dict(DAMPER_DEFAULTS)
+    vcls = VEHICLES.get(kind)
+    out = {}
+    for k, v in vcls.Params().model_dump().items():
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            out[k] = float(v)
+    return out
+
+
+def positive(name: str) -> bool:
+    return any(w in name for w in POSITIVE_WORDS) or name in ("a", "b") or name.startswith("track")
+
+
+def nominal_bounds(name: str, val: float, factor: float) -> tuple[float, float]:
+    """Physical bounds of a vehicle parameter stated with value ``val``: within ``factor`` of it."""
+    if val > 0:
+        return val / factor, val * factor
+    if val < 0:
+        return val * factor, val / factor
+    return 0.0, np.inf
+
+
+def _is_free(v) -> tuple[bool, float | None, dict]:
     if isinstance(v, str) and v.strip().lower() in ("free", "?"):
-        return True, None
+        return True, None, {}
     if isinstance(v, dict):
         val = v.get("value")
-        return bool(v.get("free", False)), (None if val is None else float(val))
+        extra = {k: float(v[k]) for k in ("lo", "hi") if v.get(k) is not None}
+        return bool(v.get("free", False)), (None if val is None else float(val)), extra
+    if isinstance(v, bool):
+        raise ScenarioError(f"parameter value {v!r} is not a number, 'free' or {{value, free}}")
     try:
-        return False, float(v)
+        return False, float(v), {}
     except (TypeError, ValueError):
         raise ScenarioError(f"parameter value {v!r} is not a number, 'free' or {{value, free}}") from None
 
@@ -136,67 +155,96 @@ def load_model(path_or_dict, source: str | None = None) -> ModelSpec:
     if not isinstance(raw, dict):
         raise ScenarioError("the model must be a YAML mapping (a vehicle block)", source=source)
     if "vehicle" in raw and isinstance(raw["vehicle"], dict):
-        inputs = raw.get("inputs", raw["vehicle"].get("inputs", {}))
-        raw = dict(raw["vehicle"])
-        raw["inputs"] = inputs
+        extra = {k: raw[k] for k in ("inputs", "position_zero", "offsets", "bounds_factor") if k in raw}
+        raw = {**dict(raw["vehicle"]), **extra}
     raw = dict(raw)
     kind = raw.get("model", "quarter_car")
-    unknown = set(raw) - {"model", "params", "effects", "inputs", "variations", "maneuver"}
+    unknown = set(raw) - {"model", "params", "effects", "inputs", "variations", "maneuver", "position_zero",
+                          "offsets", "bounds_factor"}
     if unknown:
         raise ScenarioError(f"unknown key(s) {sorted(unknown)} in the vehicle block", source=source)
-    if kind not in NOMINAL:
-        raise ScenarioError(f"unknown model {kind!r} (diagnose supports {', '.join(NOMINAL)})", source=source,
-                            field="model")
-    params = {k: v for k, v in (raw.get("params") or {}).items() if k not in IGNORED.get(kind, ())}
-    bad = [k for k in params if k not in NOMINAL[kind]]
+    if kind != "damper" and kind not in VEHICLES.names():
+        raise ScenarioError(f"unknown model {kind!r} (diagnose supports {', '.join(VEHICLES.names())} and damper)",
+                            source=source, field="model")
+    pz = raw.get("position_zero", "nominal")
+    if pz not in ("nominal", "measured"):
+        raise ScenarioError("position_zero must be 'nominal' or 'measured'", source=source, field="position_zero")
+    factor = float(raw.get("bounds_factor", 3.0))
+    if not factor > 1:
+        raise ScenarioError("bounds_factor must be > 1", source=source, field="bounds_factor")
+    defaults = vehicle_params(kind)
+    from .engine import writable_params
+
+    writable = writable_params(kind)
+    params = raw.get("params") or {}
+    if not isinstance(params, dict):
+        raise ScenarioError("params must be a mapping", source=source, field="params")
+    bad = [k for k in params if k not in defaults]
     if bad:
-        raise ScenarioError(f"unknown parameter(s) {bad} for {kind} (known: {', '.join(NOMINAL[kind])})",
+        raise ScenarioError(f"unknown parameter(s) {bad} for {kind} (known: {', '.join(defaults)})",
                             source=source, field="params")
-    P = fs.default_params()
+    P: dict = {}
     free, fixed = [], []
-    for name, slot in NOMINAL[kind].items():
-        is_free, val = (True, None) if name not in params else _is_free(params[name])
-        if val is None:
-            val = DEFAULTS[kind][name]
-        P[slot] = val
+    for name, dv in defaults.items():
+        if name in params:
+            is_free, val, ex = _is_free(params[name])
+        else:
+            is_free, val, ex = (name in writable), None, {}
+        stated = val is not None
+        val = dv if val is None else val
+        if is_free and val <= 0 and positive(name):
+            val = dv
+        P[name] = val
         if is_free:
-            lo = 1e-6 * max(abs(val), 1e-6) if name in POSITIVE else 0.0
-            free.append(FreeParam(name, slot, val, lo, np.inf, max(abs(val), 1e-9)))
+            if stated:
+                lo, hi = nominal_bounds(name, val, factor)
+            else:
+                lo, hi = (1e-6 * max(abs(val), 1e-12), np.inf) if positive(name) else (0.0, np.inf)
+            lo, hi = ex.get("lo", lo), ex.get("hi", hi)
+            free.append(FreeParam(name, val, lo, hi, max(abs(val), 1e-9)))
         else:
             fixed.append(name)
-    if kind == "damper":
-        P[fs.MS] = P[fs.MU] = 1.0
-    if kind == "sdof":
-        P[fs.MU] = 0.0
     effects = []
     for i, e in enumerate(raw.get("effects") or []):
         et = e.get("type") if isinstance(e, dict) else None
-        if et not in EFFECT_SLOTS:
-            raise ScenarioError(f"effect {et!r} cannot be diagnosed (known: {', '.join(EFFECT_SLOTS)})",
-                                source=source, field=f"effects.{i}.type")
-        ep = {**EFFECT_DEFAULTS.get(et, {}), **(e.get("params") or {})}
-        if et == "tire_liftoff":
-            P[fs.LIFT] = 1.0
-        for pn, val in ep.items():
-            if et == "coulomb_friction" and pn == "law":
-                if val != "tanh":
-                    raise ScenarioError("diagnose models Coulomb friction with the tanh law (give law: tanh and "
-                                        "v_eps)", source=source, field=f"effects.{i}.params.law")
+        ecls = EFFECTS.get(et, field=f"effects.{i}.type", source=source) if isinstance(et, str) else None
+        if ecls is None:
+            raise ScenarioError(f"effect {et!r} is not a registered effect", source=source, field=f"effects.{i}.type")
+        label = e.get("label", et if all(x.label != et for x in effects) else f"{et}#{i}")
+        corners = e.get("corners", "all")
+        ent = EffectEntry(label, et, corners, {})
+        fields = ecls.Params.model_fields
+        for pn, v in (e.get("params") or {}).items():
+            if pn not in fields:
+                raise ScenarioError(f"parameter {pn!r} of {et} is not known (known: {', '.join(fields)})",
+                                    source=source, field=f"effects.{i}.params.{pn}")
+            numeric = isinstance(v, (int, float)) and not isinstance(v, bool)
+            if not (numeric or isinstance(v, dict) or (isinstance(v, str) and v.strip().lower() in ("free", "?"))):
+                ent.fixed[pn] = v  # a setting (law, table, flag)
                 continue
-            if pn not in EFFECT_SLOTS[et]:
-                raise ScenarioError(f"parameter {pn!r} of {et} is not supported here", source=source,
-                                    field=f"effects.{i}.params.{pn}")
-            is_free, v = _is_free(val)
-            P[EFFECT_SLOTS[et][pn]] = 0.0 if v is None else v
+            is_free, val, ex = _is_free(v)
+            default = fields[pn].default
+            val = float(default if val is None and isinstance(default, (int, float)) else (val or 0.0))
+            P[f"{label}.{pn}"] = val
             if is_free:
-                free.append(FreeParam(f"{et}.{pn}", EFFECT_SLOTS[et][pn], P[EFFECT_SLOTS[et][pn]], 0.0, np.inf,
-                                      max(abs(P[EFFECT_SLOTS[et][pn]]), 1e-6)))
-        effects.append(et)
+                free.append(FreeParam(f"{label}.{pn}", val, ex.get("lo", 0.0), ex.get("hi", np.inf),
+                                      max(abs(val), 1e-6)))
+        effects.append(ent)
     inputs = raw.get("inputs") or {}
-    for name, slot, default in (("force_gain", fs.GAIN, 1.0), ("force_offset", fs.OFFS, "free")):
+    for name, key, default in (("force_gain", "input.gain", 1.0), ("force_offset", "input.offset", "free")):
         val = inputs.get(name, default)
-        is_free, v = _is_free(val)
-        P[slot] = default if (v is None and not isinstance(default, str)) else (v or 0.0)
+        is_free, v, _ = _is_free(val)
+        P[key] = default if (v is None and not isinstance(default, str)) else (v or 0.0)
         if is_free:
-            free.append(FreeParam(name, slot, P[slot], -np.inf if name == "force_offset" else 1e-6, np.inf, 1.0))
-    return ModelSpec(kind, P, free, effects, fixed, source or "", raw)
+            free.append(FreeParam(key, P[key], -np.inf if name == "force_offset" else 1e-6, np.inf, 1.0))
+    return ModelSpec(kind, P, free, effects, fixed, source or "", raw, pz, bool(raw.get("offsets", True)), factor)
+
+
+def effect_candidates() -> dict:
+    """Registered effects that declare ``free_parameters`` (each a diagnose candidate)."""
+    out = {}
+    for name in EFFECTS.names():
+        cls = EFFECTS.get(name)
+        if getattr(cls, "free_parameters", None) is not None:
+            out[name] = cls
+    return out

@@ -11,10 +11,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from . import fastsim as fs
 from . import locate
 from .io import UNITS
-from .model import NOMINAL
+from .model import vehicle_params
 from .select import Diagnosis
 
 
@@ -35,35 +34,38 @@ def _r(x, n=6):
 def vehicle_block(D: Diagnosis) -> dict:
     """The fitted model as {vehicle, actuator?, inputs, ci95}."""
     P = D.final.P
-    kind = D.record.kind
-    params = {n: float(P[slot]) for n, slot in NOMINAL[kind].items()}
-    from .model import IGNORED
-
-    params.update({k: v for k, v in (D.final.spec.raw.get("params") or {}).items() if k in IGNORED.get(kind, ())})
-    effects, actuator = [], {}
     spec = D.final.spec
-    known = [e for e in spec.raw.get("effects") or []]
-    for e in known:
-        et = e["type"]
-        from .model import EFFECT_SLOTS
-
-        ep = {pn: float(P[slot]) for pn, slot in EFFECT_SLOTS[et].items()}
-        if et == "coulomb_friction":
-            ep["law"] = "tanh"
-        effects.append({"type": et, "params": ep})
+    kind = D.record.kind
+    params = {n: float(P[n]) for n in vehicle_params(kind) if n in P}
+    effects, actuator = [], {}
+    added = {c.name for c, _, _ in D.added}
+    for e in spec.effects:
+        if e.label in added:
+            continue
+        ep = {k.split(".", 1)[1]: float(v) for k, v in P.items() if k.startswith(e.label + ".")}
+        ep.update(e.fixed)
+        ent = {"type": e.type, "params": ep}
+        if e.corners != "all":
+            ent["corners"] = list(e.corners)
+        effects.append(ent)
     for cand, _, _ in D.added:
         d = cand.describe(P)
         if "effect" in d:
-            effects.append({"type": d["effect"]["type"], "params": {k: (v if isinstance(v, str) else float(v))
-                                                                    for k, v in d["effect"]["params"].items()}})
+            ent = {"type": d["effect"]["type"], "params": {k: (v if isinstance(v, str) else float(v))
+                                                          for k, v in d["effect"]["params"].items()}}
+            if "corners" in d["effect"]:
+                ent["corners"] = d["effect"]["corners"]
+            effects.append(ent)
         elif "actuator" in d:
             actuator.update({k: float(v) for k, v in d["actuator"].items()})
     veh = {"model": kind, "params": params, "effects": effects}
-    out = {"vehicle": veh}
+    out = {"vehicle": veh, "position_zero": spec.position_zero}
     if actuator:
         out["actuator"] = {"type": "ideal", "params": actuator}
     if D.prob.has_force:
-        out["inputs"] = {"force_gain": float(P[fs.GAIN]), "force_offset": float(P[fs.OFFS])}
+        out["inputs"] = {"force_gain": float(P.get("input.gain", 1.0)), "force_offset": float(P.get("input.offset", 0.0))}
+    if D.final.offsets is not None and np.any(D.final.offsets):
+        out["channel_offsets"] = {c: float(o) for c, o, m in zip(D.prob.channels, D.final.offsets, D.prob.offset_mask) if m}
     out["ci95"] = {k: [float(a), float(b)] for k, (a, b) in D.final.ci95.items()}
     return out
 
@@ -112,16 +114,17 @@ def _road_delay(rf: np.ndarray, rr: np.ndarray, tol: float = 0.01) -> int | None
 
 
 def mujoco_confirm(D: Diagnosis, out: Path, max_seconds: float = 120.0) -> dict:
-    """Re-simulate the fitted model in MuJoCo (the project's simulator, effects from suspension_sim.effects)
-    with the measured inputs, and compare with the fast simulator and with the data."""
+    """Replay the fitted model through ``scenario.fitted.yaml`` (a plain scenario: a profile road and an
+    open-loop force table) and compare with the search's simulation (the same physics: this checks the written
+    scenario) and with the data."""
     import time
 
     from ..config import parse_scenario
     from ..simulation import Simulation
 
     rec = D.record
-    if rec.kind == "damper":
-        return {"status": "skipped", "reason": "damper element: no vehicle to simulate"}
+    if rec.kind not in ("quarter_car", "sdof", "half_car"):
+        return {"status": "skipped", "reason": f"{rec.kind}: no replay scenario written for this model kind"}
     if rec.t[-1] > max_seconds:
         return {"status": "skipped", "reason": f"record longer than {max_seconds:g} s"}
     blk = vehicle_block(D)
@@ -130,7 +133,7 @@ def mujoco_confirm(D: Diagnosis, out: Path, max_seconds: float = 120.0) -> dict:
     sub = max(1, int(np.ceil(dt_rec / 5e-4 - 1e-9)))
     dt = dt_rec / sub
     n = len(rec)
-    road = D.prob.inputs["road"]
+    road = D.prob.inputs.get("road", D.prob.inputs.get("road_front", D.prob.inputs.get("base", np.zeros(len(rec)))))
     d = out / "inputs"
     d.mkdir(exist_ok=True)
     # road: a profile driven at 1 m/s, so that distance = time
@@ -141,12 +144,12 @@ def mujoco_confirm(D: Diagnosis, out: Path, max_seconds: float = 120.0) -> dict:
         if D.prob.has_force:
             return {"status": "skipped", "reason": "half car with force inputs: per-corner force replay not "
                                                    "implemented"}
-        rr = D.prob.inputs["road_r"]
+        rr = D.prob.inputs["road_rear"]
         k = _road_delay(road, rr)
         if k is None:
             return {"status": "skipped", "reason": "the rear road is not the front road delayed (a MuJoCo road "
                                                    "profile cannot reproduce independent front/rear inputs)"}
-        speed = float(P[fs.HA] + P[fs.HB]) / (k * dt_rec)
+        speed = float(P["a"] + P["b"]) / (k * dt_rec)
     np.savetxt(d / "road.csv", np.column_stack([rec.t * speed, road]), delimiter=",", header="distance,height",
                comments="")
     sc = {"name": "diagnose_replay", "vehicle": blk["vehicle"],
@@ -158,7 +161,10 @@ def mujoco_confirm(D: Diagnosis, out: Path, max_seconds: float = 120.0) -> dict:
           "sim": {"duration": float(rec.t[-1]), "dt": dt, "control_dt": dt_rec, "log_dt": dt_rec},
           "outputs": {"timeseries": False, "plots": False}}
     if D.prob.has_force:
-        cmd = P[fs.GAIN] * D.prob.inputs["force"] + P[fs.OFFS]
+        if "input.delay" in P:
+            return {"status": "skipped", "reason": "a fitted input delay: the ideal actuator's delay is whole physics "
+                                                   "steps (the fitted YAML states it)"}
+        cmd = P.get("input.gain", 1.0) * D.prob.inputs["force"] + P.get("input.offset", 0.0)
         np.savetxt(d / "force.csv", np.column_stack([rec.t, cmd]), delimiter=",", header="time,value", comments="")
         sc["controller"] = {"type": "open_loop", "params": {"signal": "table", "file": str((d / "force.csv").resolve()),
                                                             "time_column": "time", "column": "value"}}
@@ -174,15 +180,12 @@ def mujoco_confirm(D: Diagnosis, out: Path, max_seconds: float = 120.0) -> dict:
     ts = res.ts
     colmap = {"body_acc": "body_acc", "wheel_acc": "wheel_acc", "susp_travel": "travel", "body_pos": "body_z",
               "wheel_pos": "wheel_z", "tire_force": "tire_force", "pos": "body_z", "vel": "body_vel", "acc": "body_acc"}
-    # like for like: MuJoCo starts at rest at equilibrium, so the fast simulator does too here
-    P0 = P.copy()
-    P0[fs.DX0:fs.DX0 + 4] = 0.0
-    fast = fs.run(rec.kind, P0, D.prob.inputs, D.prob.dt, D.prob.nsub, np.zeros(4))[:, D.prob.col]
+    fast = D.prob.simulate(D.final.spec, P)
     cmp = {}
     m = min(len(ts), n)
     if rec.kind == "half_car":
         ts = ts.copy()
-        for e, xc in (("front", float(P[fs.HA])), ("rear", -float(P[fs.HB]))):
+        for e, xc in (("front", float(P["a"])), ("rear", -float(P["b"]))):
             ts[f"body_acc_{e}"] = ts["body_acc"] - xc * ts["pitch_acc"]
             ts[f"body_pos_{e}"] = ts["body_z"] - xc * ts["pitch"]
             for a_, b_ in (("susp_travel", "travel"), ("wheel_pos", "wheel_z"), ("wheel_acc", "wheel_acc"),
@@ -195,7 +198,7 @@ def mujoco_confirm(D: Diagnosis, out: Path, max_seconds: float = 120.0) -> dict:
             continue
         mj = ts[col].to_numpy()[:m]
         ref = fast[:m, i]
-        cmp[c] = {"nrmse_mujoco_vs_fast": float(np.sqrt(np.mean((mj - ref) ** 2)) / max(np.std(ref), 1e-30)),
+        cmp[c] = {"nrmse_replay_vs_search": float(np.sqrt(np.mean((mj - ref) ** 2)) / max(np.std(ref), 1e-30)),
                   "nrmse_mujoco_vs_data": float(np.sqrt(np.mean((mj - D.prob.Y[:m, i]) ** 2)) / D.prob.scale[i])}
     return {"status": "ok", "wall_s": wall, "channels": cmp, "scenario": "scenario.fitted.yaml"}
 
@@ -234,8 +237,10 @@ def build_report(D: Diagnosis, out: Path, confirm: bool = True, plots: bool = Tr
                            {k: v[D.train[0]:D.train[1]] for k, v in D.record.inputs.items()},
                            D.prob.channels, D.floors, D.record.fs)
     loc_s_after = locate.spectra(resid_fin[D.train[0]:D.train[1]], {}, D.prob.channels, D.floors, D.record.fs)
-    fmap = locate.force_map(D.prob, D.nominal.P, D.floors, *D.train)
-    fmap_after = locate.force_map(D.prob, D.final.P, D.floors, *D.train)
+    fmap = locate.force_map(D.prob, D.nominal.P, D.floors, *D.train,
+                            effects=[(e.label, e.type, e.corners, e.fixed) for e in D.nominal.spec.effects])
+    fmap_after = locate.force_map(D.prob, D.final.P, D.floors, *D.train,
+                                  effects=[(e.label, e.type, e.corners, e.fixed) for e in D.final.spec.effects])
     conf = mujoco_confirm(D, out) if confirm else {"status": "skipped", "reason": "--no-confirm"}
     report = {
         "effects": effects,
@@ -261,6 +266,8 @@ def build_report(D: Diagnosis, out: Path, confirm: bool = True, plots: bool = Tr
         "record": {"source": D.record.source, "kind": D.record.kind, "samples": len(D.record), "fs_hz": D.record.fs,
                    "notes": D.record.notes, "inputs": list(D.record.inputs), "outputs": D.prob.channels},
         "verdict": verdict(D, effects, before, after),
+        "unexplained_x_floor": D.unexplained,
+        "proposal": D.proposal,
     }
     report = _r(report)
     (out / "report.json").write_text(json.dumps(report, indent=1))
@@ -271,14 +278,18 @@ def build_report(D: Diagnosis, out: Path, confirm: bool = True, plots: bool = Tr
 
 
 def verdict(D, effects, before, after) -> str:
+    tail = (f" Unexplained: {D.unexplained:.1f}× the noise floor (the library cannot explain the rest)."
+            if D.unexplained else "")
     if not effects:
+        if D.unexplained:
+            return "No candidate effect lowers the held-out error beyond the noise: nothing is named." + tail
         return ("No candidate effect lowers the held-out error beyond the noise: nothing is named. "
                 "The calibrated nominal model is as good as any in the library on this record.")
     names = ", ".join(e["name"] for e in effects)
     tb = np.sqrt(np.mean(np.square(list(before["test"].values()))))
     ta = np.sqrt(np.mean(np.square(list(after["test"].values()))))
     return (f"Missing: {names}. Held-out NRMSE {tb:.4g} → {ta:.4g} "
-            f"({100 * (1 - ta / max(tb, 1e-30)):.1f} % lower).")
+            f"({100 * (1 - ta / max(tb, 1e-30)):.1f} % lower).{tail}")
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -412,8 +423,8 @@ def write_html(D, rep: dict, figs, path: Path) -> None:
                f"standard error = {fm['max_abs_z']:.1f} (after: {loc['force_map_after']['max_abs_z']:.1f}).</p>"
                if fm else "<p>No residual force map (needs a measured acceleration and travel).</p>")
     conf = rep["mujoco_confirmation"]
-    conf_line = (("<p>MuJoCo re-simulation of the fitted model with the measured inputs: " + ", ".join(
-        f"{e(c)}: NRMSE vs fast simulator {v['nrmse_mujoco_vs_fast']:.3g}, vs data {v['nrmse_mujoco_vs_data']:.3g}"
+    conf_line = (("<p>Replay of scenario.fitted.yaml (the fitted model with the measured inputs): " + ", ".join(
+        f"{e(c)}: NRMSE replay vs search {v['nrmse_replay_vs_search']:.3g}, vs data {v['nrmse_mujoco_vs_data']:.3g}"
         for c, v in conf["channels"].items()) + "</p>") if conf.get("status") == "ok"
         else f"<p>MuJoCo re-simulation: {e(conf.get('status', ''))} ({e(str(conf.get('reason', '')))})</p>")
     imgs = "".join(f"<figure><img src='{e(p)}' style='max-width:100%'><figcaption>{e(c)}</figcaption></figure>"

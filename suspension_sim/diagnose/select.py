@@ -1,22 +1,25 @@
-"""Greedy forward selection of missing effects.
+"""Selection of missing effects: a forward search with a beam over pairs, guarded against worse and absurd
+models.
 
 1. Calibrate the nominal model's free parameters on the training part.
-2. For every applicable candidate: add it, refit (the candidate's parameters and every free parameter,
-   from several starts), and score it on the training data by BIC (N·ln(cost) + p·ln N; AIC is reported too).
-3. A candidate is *kept* only if, on the held-out data, it lowers the error beyond the noise:
-   (a) its BIC is below the current model's, (b) the drop of the squared error on held-out data is
-   significant (z > 2 over 20 contiguous blocks, so that correlated residuals are not counted as
-   independent; or, for effects that act rarely and concentrate their gain in a few blocks, the candidate
-   removes at least half of the held-out error above the noise floor), (c) it removes at least ``min_excess_drop`` (default 10 %) of the held-out error that
-   lies *above the noise floor* (``sqrt(NRMSE² − floor²)``; the floor is the sensor noise estimated from the
-   data, or a repeatability floor given by the user), and (d) the held-out NRMSE falls by at least
-   ``min_rel_drop`` (default 5 %), so that a model already near the floor is not decorated with
-   effects that only polish the last digits.
-4. Of the kept candidates the one with the lowest BIC is added; repeat from 2 (so two or more effects can
-   be found); stop when no candidate is kept.  When none is kept at the first round, nothing is named.
-5. Backward check: an added effect is dropped again when the model refitted without it is not worse by BIC
-   and its held-out NRMSE is within ``min_rel_drop`` of the full model's (greedy selection can pick a
-   stand-in first, e.g. a bump stop for a hardening spring, and keep it after the true effect joins).
+2. For every applicable candidate (:func:`.candidates.library`): add it, refit (the candidate's parameters
+   and every free parameter, from several starts), and score it on the training data by BIC.
+3. A candidate is *kept* only if, on held-out data, it lowers the error beyond the noise: (a) its BIC is
+   below the current model's; (b) the held-out improvement is significant (z > 2 over 20 contiguous blocks,
+   or at least half of the held-out error above the noise floor removed); (c) it removes at least
+   ``min_excess_drop`` (10 %) of the held-out error above the floor; (d) the held-out NRMSE falls by at
+   least ``min_rel_drop`` (5 %); (e) **no output channel's held-out error rises by more than its noise
+   floor** (a change that trades one channel for another is not a better model); (f) **its size is
+   distinguishable from zero** (every size parameter, e.g. a friction force, outside its 95 % interval
+   around zero); the parameters stay within their physical bounds by construction (the fit is bounded).
+4. The kept candidate with the lowest BIC is added, and the search repeats (up to ``max_effects``).
+5. **Beam over pairs**: when no single candidate is kept while the held-out error is still more than
+   ``far`` (3) times the noise floor, the ``beam`` (4) candidates with the best training cost are tried
+   in pairs (two interacting effects, e.g. friction with bump stops, can each fail alone).
+6. Backward check: an added effect is dropped again when the model refitted without it is not worse by BIC
+   and within ``min_rel_drop`` on held-out data.
+7. When the final held-out error is still far above the floor, the report says so: "unexplained: N× the
+   noise floor".
 
 Speed: when the training part is longer than 1.5 × ``screen_samples`` (default 20 000: 20 s at 1 kHz),
 the screening fits use its first ``screen_samples`` samples and the chosen candidate is refitted on the
@@ -29,9 +32,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.signal import welch
 
-from . import fastsim as fs
 from .calibrate import FitResult, Problem, fit
-from .candidates import Candidate, Scales, WrongParameter, library
+from .candidates import Candidate, Scales, library
 from .io import Record
 from .model import ModelSpec
 
@@ -83,169 +85,84 @@ class Diagnosis:
     scales: Scales
     timings: dict = field(default_factory=dict)
 
+    unexplained: float | None = None  # final held-out error / noise floor when far above it
+    proposal: dict | None = None  # a law beyond the library (sparse fit to the residual force)
+
     def sims(self, fitres: FitResult):
-        """(train/whole-record simulation, test simulation) of a fit."""
-        s = self.prob.simulate(fitres.P)
-        st = self.test_prob.simulate(_for_test(fitres.P)) if self.test_prob is not None else s
+        """(train/whole-record simulation, test simulation) of a fit, with its fitted channel offsets."""
+        o = fitres.offsets if fitres.offsets is not None else 0.0
+        s = self.prob.simulate(fitres.spec, fitres.P) + o
+        st = self.test_prob.simulate(fitres.spec, fitres.P) + o if self.test_prob is not None else s
         return s, st
 
     def nrmse(self, fitres: FitResult) -> dict:
         s, st = self.sims(fitres)
         tp = self.test_prob or self.prob
-        return {"train": self.prob.nrmse(s, *self.train), "test": tp.nrmse(st, *self.test)}
+        z = np.zeros(len(self.prob.channels))
+        return {"train": self.prob.nrmse(s, *self.train, offsets=z), "test": tp.nrmse(st, *self.test, offsets=z)}
 
     def rmse(self, fitres: FitResult) -> dict:
         s, st = self.sims(fitres)
         tp = self.test_prob or self.prob
-        return {"train": self.prob.rmse(s, *self.train), "test": tp.rmse(st, *self.test)}
+        z = np.zeros(len(self.prob.channels))
+        return {"train": self.prob.rmse(s, *self.train, offsets=z), "test": tp.rmse(st, *self.test, offsets=z)}
 
 
-def _for_test(P):
-    """Parameters for a separate held-out record: its own initial state, no training-record corrections."""
-    P = P.copy()
-    P[fs.DX0:fs.DX0 + 4] = 0.0
-    return P
 
-
-def _scales(prob: Problem, P: np.ndarray, b: int) -> Scales:
-    out = fs.run(prob.kind, P, {k: v[:b] for k, v in prob.inputs.items()}, prob.dt, prob.nsub, prob.x0)
-    if prob.kind == "quarter_car":
-        s = out[:, 2]
-        ft = out[:, 5]
-        tension = bool(np.any((P[fs.MS] + P[fs.MU]) * fs.G + ft < 0))
-    elif prob.kind == "half_car":
-        # both corners' travels pooled (the effects are shared by the corners)
-        s = np.concatenate([out[:, 2] - np.mean(out[:, 2]), out[:, 8] - np.mean(out[:, 8])])
-        L = P[fs.HA] + P[fs.HB]
-        tension = bool(np.any((P[fs.MS] * P[fs.HB] / L + P[fs.MU]) * fs.G + out[:, 5] < 0)
-                       or np.any((P[fs.MS] * P[fs.HA] / L + P[fs.MU_R]) * fs.G + out[:, 11] < 0))
-    elif prob.kind == "sdof":
-        s = out[:, 2] - prob.inputs["road"][:b]
-        tension = False
+def _scales(prob: Problem, spec: ModelSpec, P: dict, b: int) -> Scales:
+    """RMS travel, rate and linear suspension force of the nominal simulation (pooled over corners)."""
+    kind = prob.kind
+    if kind == "damper":
+        s = prob.inputs["disp"][:b]
+        v = prob.inputs["vel"][:b] if "vel" in prob.inputs else np.gradient(s, prob.dt)
+        k, c = P.get("spring_stiffness", 0.0), P.get("damping", 0.0)
     else:
-        s = prob.inputs["road"][:b]
-        tension = False
-    s = s - np.mean(s) if prob.kind != "damper" else s
-    if prob.kind == "half_car":
-        v = np.concatenate([np.gradient(s[:b], prob.dt), np.gradient(s[b:], prob.dt)])
-    else:
-        v = np.gradient(s, prob.dt) if prob.kind != "damper" else prob.inputs["roaddot"][:b]
-    F = P[fs.K] * s + P[fs.C] * v
+        eng = prob.engine(spec)
+        out = eng.run([P], b, [(e.label, e.type, e.corners, e.fixed) for e in spec.effects])[0]
+        if kind == "sdof":
+            base = prob.inputs.get("base", np.zeros(b))[:b]
+            s = out[:, eng.channels.index("pos")] - base
+        else:
+            s = np.concatenate([out[:, j] - out[:, j].mean() for j, c in enumerate(eng.channels)
+                                if c.startswith("susp_travel")])
+        v = np.gradient(s, prob.dt)
+        ks = [P[n] for n in P if n.startswith("spring_stiffness")]
+        cs = [P[n] for n in P if n.startswith("damping")]
+        k, c = (float(np.mean(ks)) if ks else 0.0), (float(np.mean(cs)) if cs else 0.0)
+    F = k * s + c * v
     Fr = float(np.sqrt(np.mean(F ** 2)))
     if Fr <= 0 and prob.has_force:
-        Fr = float(np.std(prob.inputs["force"][:b]))
+        Fr = float(np.std(np.concatenate([v_ for n, v_ in prob.inputs.items() if n.startswith("force")])))
+    has_tire = kind not in ("sdof", "damper")
     return Scales(float(np.sqrt(np.mean(s ** 2))) or 1e-6, float(np.max(np.abs(s))) or 1e-6,
-                  float(np.sqrt(np.mean(v ** 2))) or 1e-6, Fr or 1.0, float(P[fs.K]), float(P[fs.C]),
-                  prob.has_force, tension, m_red=_m_red(prob.kind, P), h=prob.dt / prob.nsub)
-
-
-def _m_red(kind, P):
-    if kind == "half_car":
-        m = 0.5 * P[fs.MS]
-        return float(min(m * P[fs.MU] / (m + P[fs.MU]), m * P[fs.MU_R] / (m + P[fs.MU_R])))
-    if kind == "quarter_car":
-        return float(P[fs.MS] * P[fs.MU] / (P[fs.MS] + P[fs.MU]))
-    return float(P[fs.MS]) if kind == "sdof" else float("inf")
+                  float(np.sqrt(np.mean(v ** 2))) or 1e-6, Fr or 1.0, k, c, prob.has_force, has_tire)
 
 
 def _with_fit(spec: ModelSpec, fr: FitResult) -> ModelSpec:
-    """``spec`` with its parameter vector and starting values at a fit's optimum."""
+    """``spec`` with its parameters and starting values at a fit's optimum."""
     s = spec.copy()
-    s.P = fr.P.copy()
-    for f, v in zip(s.free, fr.x):
-        f.init = float(v)
+    s.P = dict(fr.P)
+    for f in s.free:
+        if f.name in fr.P:
+            f.init = float(fr.P[f.name])
     return s
-
-
-def _augment(spec: ModelSpec, cand: Candidate, sc: Scales) -> tuple[ModelSpec, list[np.ndarray]]:
-    s = spec.copy()
-    cand.setup(s.P, sc)
-    if isinstance(cand, WrongParameter):
-        s.free = s.free + cand.free_for(s.P)
-        s.fixed_nominal = [p for p in s.fixed_nominal if p != cand.pname]
-        return s, [s.x0]
-    new = cand.free(sc)
-    s.free = s.free + new
-    s.effects = s.effects + [cand.name]
-    base = [f.init for f in spec.free]
-    starts = [np.array(base + list(st), float) for st in cand.starts(sc)] if new else [s.x0]
-    return s, starts
-
-
-def init_sdof(rec: Record, spec: ModelSpec) -> None:
-    """Starting values of free SDOF parameters by equation error: least squares of
-    ``m·ẍ + c·ṡ + k·s = u + offset`` with derivatives of the measured position (central differences).
-    Only used when mass, stiffness or damping is free and a force input and a position are measured."""
-    free = {f.name: f for f in spec.free}
-    if not ({"sprung_mass", "spring_stiffness", "damping"} & set(free)) or "pos" not in rec.outputs \
-            or "force" not in rec.inputs:
-        return
-    dt = rec.dt
-    x = rec.outputs["pos"]
-    base = rec.inputs.get("base", np.zeros_like(x))
-    # three-point second difference: less high-frequency bias than differentiating twice with 2·dt spacing
-    acc = np.empty_like(x)
-    acc[1:-1] = (x[2:] - 2 * x[1:-1] + x[:-2]) / dt ** 2
-    acc[0], acc[-1] = acc[1], acc[-2]
-    s = x - base
-    sd = np.gradient(s, dt)
-    u = rec.inputs["force"]
-    cols = {"sprung_mass": acc, "damping": sd, "spring_stiffness": s}
-    names = [n for n in ("sprung_mass", "damping", "spring_stiffness") if n in free]
-    rhs = u * spec.P[fs.GAIN] - sum(spec.P[{"sprung_mass": fs.MS, "damping": fs.C, "spring_stiffness": fs.K}[n]] * cols[n]
-                                   for n in cols if n not in free)
-    A = np.stack([cols[n] for n in names] + [-np.ones_like(u)], axis=1)
-    sol, *_ = np.linalg.lstsq(A, rhs, rcond=None)
-    slot_of = {"sprung_mass": fs.MS, "damping": fs.C, "spring_stiffness": fs.K}
-    P_eq = spec.P.copy()
-    for n, val in zip(names, sol):
-        P_eq[slot_of[n]] = abs(val) if n == "sprung_mass" else max(val, 0.0)
-    if "force_offset" in free:
-        P_eq[fs.OFFS] = float(sol[-1])
-    # keep the equation-error values only if they simulate better than the given/default starting values
-    m = min(len(x), 20000)
-    chk = Problem(rec.slice(0, m), omega_max=max(Problem.omega_max(spec), _omega(P_eq, spec.kind)))
-    err = [np.mean(list(chk.nrmse(chk.simulate(PP), 0, m).values())) for PP in (spec.P, P_eq)]
-    if not (err[1] < err[0]) or P_eq[fs.MS] <= 0:
-        return
-    for n in names:
-        slot = slot_of[n]
-        spec.P[slot] = P_eq[slot]
-        free[n].init = float(P_eq[slot])
-        if P_eq[slot] > 0:
-            free[n].scale = float(P_eq[slot])
-        if n == "sprung_mass":
-            free[n].lo = 1e-6 * P_eq[slot]
-    if "force_offset" in free:
-        free["force_offset"].init = float(sol[-1])
-        free["force_offset"].scale = max(float(np.std(u)) * 0.01, 1e-12)
-        spec.P[fs.OFFS] = float(sol[-1])
-
-
-def _omega(P, kind):
-    return float(np.sqrt(max(P[fs.K], 0) / P[fs.MS])) if P[fs.MS] > 0 else 0.0
 
 
 class Selector:
     def __init__(self, rec: Record, spec: ModelSpec, split: float = 0.7, test_record: Record | None = None,
                  floors: dict | None = None, candidates: list[str] | None = None, max_effects: int = 3,
                  screen_samples: int = 20000, min_excess_drop: float = 0.10, z_min: float = 2.0,
-                 min_rel_drop: float = 0.05,
-                 test_skip: int | None = None, log=None, workers: int | None = None, max_substep: float = 1e-3):
-        import os
-
+                 min_rel_drop: float = 0.05, test_skip: int | None = None, log=None, workers: int | None = None,
+                 max_dt: float = 5e-4, beam: int = 4, far: float = 3.0, placements: bool = True):
         self.rec = rec
         self.spec = spec
-        self.workers = workers or min(2, os.cpu_count() or 1)
         if rec.kind == "sdof":
             init_sdof(rec, spec)
-        om = Problem.omega_max(spec)
-        self.prob = Problem(rec, max_substep=max_substep, omega_max=om)
+        self.prob = Problem(rec, spec, max_dt=max_dt)
         n = len(rec)
         if test_record is not None:
             self.train = (0, n)
-            self.test_prob = Problem(test_record, skip=50 if test_skip is None else test_skip, max_substep=max_substep,
-                                     omega_max=om)
+            self.test_prob = Problem(test_record, spec, skip=50 if test_skip is None else test_skip, max_dt=max_dt)
             self.test = (0, len(test_record))
         else:
             if not 0.05 < split < 0.95:
@@ -254,23 +171,8 @@ class Selector:
             self.train, self.test = (0, b), (b, n)
             self.test_prob = None
         if not self.prob.has_force:
-            self.spec.free = [f for f in self.spec.free if not f.name.startswith("force_")]
-            self.spec.P[fs.OFFS] = 0.0
-        # nuisance: corrections to the measured initial state of lightly damped/integrating models
-        from .model import FreeParam
-
-        o = rec.outputs
-        if rec.kind == "sdof":
-            sp = float(np.std(o["pos"])) if "pos" in o else 0.0
-            if sp > 0:
-                vs = sp / rec.dt / 50
-                self.spec.free += [FreeParam("initial.pos", fs.DX0, 0.0, -np.inf, np.inf, 0.01 * sp),
-                                   FreeParam("initial.vel", fs.DX0 + 1, 0.0, -np.inf, np.inf, vs)]
-        elif rec.kind == "quarter_car" and "body_pos" in o and "wheel_pos" in o:
-            for k, ch in ((0, "body_pos"), (2, "wheel_pos")):
-                sp = float(np.std(o[ch]))
-                self.spec.free += [FreeParam(f"initial.{ch}", fs.DX0 + k, 0.0, -np.inf, np.inf, 0.01 * sp),
-                                   FreeParam(f"initial.{ch}_rate", fs.DX0 + k + 1, 0.0, -np.inf, np.inf, sp / rec.dt / 50)]
+            self.spec.free = [f for f in self.spec.free if not f.name.startswith("input.")]
+            self.spec.P["input.offset"] = 0.0
         self.user_floors = floors or {}
         self.cand_filter = candidates
         self.max_effects = max_effects
@@ -278,6 +180,9 @@ class Selector:
         self.min_excess_drop = min_excess_drop
         self.min_rel_drop = min_rel_drop
         self.z_min = z_min
+        self.beam = beam
+        self.far = far
+        self.placements = placements
         self.log = log or (lambda msg: None)
 
     # --------------------------------------------------------------------------------------------------
@@ -292,13 +197,12 @@ class Selector:
             out[c]["nrmse"] = out[c]["value"] / float(self.prob.scale[i])
         return out
 
-    def _test_errors(self, P):
+    def _test_errors(self, fr: FitResult):
         tp = self.test_prob or self.prob
-        sim = tp.simulate(_for_test(P) if self.test_prob is not None else P)
+        sim = tp.simulate(fr.spec, fr.P) + (fr.offsets if fr.offsets is not None else 0.0)
         a, b = self.test
         a = max(a, tp.skip)
-        e = (sim[a:b] - tp.Y[a:b]) / tp.scale
-        return e
+        return (sim[a:b] - tp.Y[a:b]) / tp.scale
 
     def _gate(self, e_before, e_after, floor_n):
         agg = lambda e: float(np.sqrt(np.mean(e ** 2)))  # noqa: E731 — RMS over samples and channels
@@ -313,6 +217,26 @@ class Selector:
         z = float(m.mean() / se) if se > 0 else (np.inf if m.mean() > 0 else 0.0)
         return Eb, Ea, xb, xa, z
 
+    def _judge(self, tr, fr, cur_screen, e_cur, floor_n, size_names):
+        """Fill the trial's evidence and decide whether it is kept (the gate of the module docstring)."""
+        e_new = self._test_errors(fr)
+        Eb, Ea, xb, xa, z = self._gate(e_cur, e_new, floor_n)
+        tr.bic, tr.aic = fr.bic(), fr.aic()
+        tr.d_bic = fr.bic() - cur_screen.bic()
+        tr.test_before, tr.test_after, tr.excess_before, tr.excess_after, tr.z = Eb, Ea, xb, xa, z
+        ch_b = np.sqrt(np.mean(e_cur ** 2, axis=0))
+        ch_a = np.sqrt(np.mean(e_new ** 2, axis=0))
+        worse = [c for c, b_, a_, f_ in zip(self.prob.channels, ch_b, ch_a, floor_n) if a_ > b_ + f_]
+        zero = [n for n in size_names if n in fr.params and not (abs(fr.params[n]) > 2.0 * fr.std.get(n, np.inf))]
+        signif = z > self.z_min or xa <= 0.5 * xb
+        tr.kept = bool(tr.d_bic < 0 and signif and xa <= (1 - self.min_excess_drop) * xb
+                       and Ea <= (1 - self.min_rel_drop) * Eb and not worse and not zero)
+        if worse:
+            tr.reason = f"rejected: held-out error worse beyond the noise on {', '.join(worse)}"
+        elif zero:
+            tr.reason = f"rejected: size indistinguishable from zero ({', '.join(zero)})"
+        return e_new
+
     # --------------------------------------------------------------------------------------------------
     def run(self) -> Diagnosis:
         import time
@@ -324,133 +248,192 @@ class Selector:
         a, b = self.train
         self.log(f"calibrating the nominal model ({', '.join(self.spec.names()) or 'nothing free'}) on "
                  f"{b - a} training samples")
-        # screening window: the whole training part unless it is much longer than screen_samples
         bs = b if b - a <= 1.5 * self.screen else a + self.screen
         nominal = fit(self.prob, self.spec, a, bs, max_nfev=100)
-        if bs < b:  # polish on the whole training part from the screening optimum
+        if bs < b:
             nominal = fit(self.prob, _with_fit(self.spec, nominal), a, b, max_nfev=30)
         T["calibrate"] = time.perf_counter() - t0
         current_spec = _with_fit(self.spec, nominal)
         current = nominal
-        sc = _scales(self.prob, nominal.P, b)
-        if self.rec.kind in ("quarter_car", "half_car"):  # tire tension anywhere in the record (inputs are known throughout)
-            sc.tire_tension = _scales(self.prob, nominal.P, len(self.rec)).tire_tension or (
-                self.test_prob is not None and _scales(self.test_prob, _for_test(nominal.P), len(self.test_prob.rec)).tire_tension)
+        sc = _scales(self.prob, current_spec, nominal.P, b)
         cur_screen = fit(self.prob, current_spec, a, bs, max_nfev=1) if bs < b else current
-        lib = library(self.rec.kind)
+        lib = library(current_spec, placements=self.placements)
         if self.cand_filter is not None:
-            lib = [c for c in lib if c.name in self.cand_filter or (c.name.startswith("parameter:")
-                                                                     and "parameter" in self.cand_filter)]
+            lib = [c for c in lib if c.name.split("@")[0] in self.cand_filter
+                   or (c.name.startswith("parameter:") and "parameter" in self.cand_filter)]
         added, trials = [], []
-        e_cur = self._test_errors(current.P)
-        for rnd in range(1, self.max_effects + 1):
-            best = None
-            todo = []
+        e_cur = self._test_errors(current)
+        tried_pairs = set()
+
+        def attempt(cands, rnd, current_spec, current, cur_screen, e_cur, starts_from=()):
+            name = "+".join(c.name for c in cands)
+            tr = Trial(name, rnd, True)
+            t1 = time.perf_counter()
+            spec_c, starts = current_spec, None
+            sizes = []
+            for c in cands:
+                spec_c, st = c.augment(spec_c, sc)
+                sizes += list(c.size_names)
+                starts = st if starts is None else [s0 + s1[len(s0):] for s0 in starts for s1 in st[:1]]
+            for fr0 in starts_from:  # a pair starts from each member's own fit too
+                starts.append([fr0.P.get(f.name, f.init) for f in spec_c.free])
+            try:
+                fr = fit(self.prob, spec_c, a, bs, starts=[np.array(s0, float) for s0 in starts], max_nfev=25)
+            except RuntimeError as err:
+                tr.applicable, tr.reason = False, f"fit failed: {err}"
+                trials.append(tr)
+                return None
+            tr.params = {k: v for k, v in fr.params.items() if k not in current.params}
+            self._judge(tr, fr, cur_screen, e_cur, floor_n, sizes)
+            tr.seconds = time.perf_counter() - t1
+            trials.append(tr)
+            self.log(f"  round {rnd} {name:<36} ΔBIC {tr.d_bic:12.1f}  test NRMSE {tr.test_before:.4f} → "
+                     f"{tr.test_after:.4f}  z {tr.z:6.1f}  {tr.seconds:5.1f} s  {'KEPT' if tr.kept else tr.reason}")
+            return (list(cands), spec_c, tr, fr)
+
+        rnd = 0
+        while len(added) < self.max_effects:
+            rnd += 1
+            results = []
             prev = {t.name: t for t in trials if t.round == rnd - 1}
+            in_model = {c.name for cs, _, _ in added for c in cs}
             for cand in lib:
-                if any(c.name == cand.name for c, _, _ in added):
+                if cand.name in in_model:
                     continue
-                ok, why = cand.applies(self.rec.kind, sc, current_spec)
+                ok, why = cand.applies(current_spec, sc)
                 pt = prev.get(cand.name)
                 if ok and pt is not None and pt.applicable and np.isfinite(pt.d_bic) and pt.d_bic >= 0:
                     ok, why = False, f"pruned: no training improvement in round {rnd - 1} (ΔBIC {pt.d_bic:+.1f})"
-                tr = Trial(cand.name, rnd, ok, why)
-                trials.append(tr)
-                if ok:
-                    todo.append((cand, tr))
-
-            def attempt(item, current_spec=current_spec, current=current, cur_screen=cur_screen, e_cur=e_cur):
-                cand, tr = item
-                t1 = time.perf_counter()
-                spec_c, starts = _augment(current_spec, cand, sc)
-                try:
-                    fr = fit(self.prob, spec_c, a, bs, starts=starts, max_nfev=25)
-                except RuntimeError as err:
-                    tr.applicable, tr.reason = False, f"fit failed: {err}"
-                    return None
-                e_new = self._test_errors(fr.P)
-                Eb, Ea, xb, xa, z = self._gate(e_cur, e_new, floor_n)
-                tr.params = {k: v for k, v in fr.params.items() if k not in current.params}
-                tr.bic, tr.aic = fr.bic(), fr.aic()
-                tr.d_bic = fr.bic() - cur_screen.bic()
-                tr.test_before, tr.test_after, tr.excess_before, tr.excess_after, tr.z = Eb, Ea, xb, xa, z
-                # significance: z over blocks, or (for effects that act rarely, whose gain sits in a few
-                # blocks) a large gain that removes at least half of the held-out error above the floor
-                signif = z > self.z_min or xa <= 0.5 * xb
-                tr.kept = bool(tr.d_bic < 0 and signif and xa <= (1 - self.min_excess_drop) * xb
-                               and Ea <= (1 - self.min_rel_drop) * Eb)
-                tr.seconds = time.perf_counter() - t1
-                return cand, spec_c, tr, fr
-
-            self.prob.parallel = self.workers <= 1
-            if self.workers > 1:
-                from concurrent.futures import ThreadPoolExecutor
-
-                with ThreadPoolExecutor(self.workers) as ex:
-                    results = list(ex.map(attempt, todo))
-            else:
-                results = [attempt(it) for it in todo]
-            self.prob.parallel = True
-            for res in results:
-                if res is None:
+                if not ok:
+                    trials.append(Trial(cand.name, rnd, False, why))
                     continue
-                cand, spec_c, tr, fr = res
-                self.log(f"  round {rnd} {cand.name:<28} ΔBIC {tr.d_bic:12.1f}  test NRMSE {tr.test_before:.4f} → "
-                         f"{tr.test_after:.4f}  z {tr.z:6.1f}  {tr.seconds:5.1f} s  {'KEPT' if tr.kept else ''}")
-                if tr.kept and (best is None or tr.bic < best[2].bic):
-                    best = res
-            if best is None:
+                r = attempt([cand], rnd, current_spec, current, cur_screen, e_cur)
+                if r is not None:
+                    results.append(r)
+            kept = [r for r in results if r[2].kept]
+            Ecur = float(np.sqrt(np.mean(e_cur ** 2)))
+            fl = float(np.sqrt(np.mean(floor_n ** 2)))
+            if not kept and Ecur > self.far * fl and self.max_effects - len(added) >= 2:
+                # beam over pairs: the best candidates by training cost, two at a time
+                ok_res = sorted([r for r in results if np.isfinite(r[2].bic) and not r[2].reason.startswith("rejected: size")],
+                                key=lambda r: r[2].bic)[:self.beam]
+                self.log(f"  no single candidate kept at {Ecur / max(fl, 1e-12):.1f}× the noise floor: "
+                         f"pairs of {', '.join(r[2].name for r in ok_res)}")
+                for i in range(len(ok_res)):
+                    for j in range(i + 1, len(ok_res)):
+                        ci, cj = ok_res[i][0][0], ok_res[j][0][0]
+                        if ci.name.split("@")[0] == cj.name.split("@")[0]:
+                            continue
+                        key = frozenset((ci.name, cj.name))
+                        if key in tried_pairs:
+                            continue
+                        tried_pairs.add(key)
+                        r = attempt([ci, cj], rnd, current_spec, current, cur_screen, e_cur,
+                                    starts_from=(ok_res[i][3], ok_res[j][3]))
+                        if r is not None and r[2].kept:
+                            kept.append(r)
+            if not kept:
                 break
-            cand, spec_c, tr, fr = best
-            # polish on the whole training part, so that the next round starts from the optimum
+            cands, spec_c, tr, fr = min(kept, key=lambda r: r[2].bic)
             fr = fit(self.prob, _with_fit(spec_c, fr), a, bs, max_nfev=100)
             if bs < b:
                 fr = fit(self.prob, _with_fit(spec_c, fr), a, b, max_nfev=30)
-            added.append((cand, fr, tr))
+            added.append((cands, fr, tr))
             current_spec = _with_fit(spec_c, fr)
             current = fr
             cur_screen = fit(self.prob, current_spec, a, bs, max_nfev=1) if bs < b else current
-            e_cur = self._test_errors(current.P)
-            self.log(f"added {cand.name}: {fr.params}")
-        # backward check: greedy forward selection can pick a stand-in first (e.g. a bump stop for a hardening
-        # spring) and keep it after the real effect joins; drop an added effect when the model without it is
-        # as good on held-out data (its removal raises the held-out NRMSE by less than min_rel_drop) and not
-        # worse by BIC on the training data
+            e_cur = self._test_errors(current)
+            self.log(f"added {tr.name}: {fr.params}")
+        # backward check
         removed = True
-        while removed and len(added) >= 2:
+        while removed and sum(len(cs) for cs, _, _ in added) >= 2:
             removed = False
-            e_full = self._test_errors(current.P)
-            E_full = float(np.sqrt(np.mean(e_full ** 2)))
-            for k in range(len(added)):
-                keep = [x for i, x in enumerate(added) if i != k]
+            E_full = float(np.sqrt(np.mean(self._test_errors(current) ** 2)))
+            flat = [(c, k) for k, (cs, _, _) in enumerate(added) for c in cs]
+            for drop in range(len(flat)):
+                keep = [c for i, (c, _) in enumerate(flat) if i != drop]
                 spec_r = _with_fit(self.spec, nominal)
-                starts_ok = True
-                for cand, _, _ in keep:
-                    spec_r, _st = _augment(spec_r, cand, sc)
-                # start every parameter from the full model's values
-                vals = current.params
+                for cand in keep:
+                    spec_r, _st = cand.augment(spec_r, sc)
                 for f in spec_r.free:
-                    if f.name in vals:
-                        f.init = vals[f.name]
+                    if f.name in current.P:
+                        f.init = current.P[f.name]
+                        spec_r.P[f.name] = current.P[f.name]
                 try:
                     fr_r = fit(self.prob, spec_r, a, b, max_nfev=60)
                 except RuntimeError:
-                    starts_ok = False
-                if not starts_ok:
                     continue
-                E_r = float(np.sqrt(np.mean(self._test_errors(fr_r.P) ** 2)))
+                E_r = float(np.sqrt(np.mean(self._test_errors(fr_r) ** 2)))
                 if E_r <= E_full / (1 - self.min_rel_drop) and fr_r.bic() <= current.bic():
-                    cand, _, tr = added[k]
-                    tr.kept = False
-                    tr.reason = (f"dropped in the backward check: without it held-out NRMSE {E_r:.4g} vs "
-                                 f"{E_full:.4g} with it")
+                    cand = flat[drop][0]
                     self.log(f"dropped {cand.name} (backward check: {E_r:.4g} without vs {E_full:.4g} with)")
-                    added = keep
+                    for t in trials:
+                        if t.kept and cand.name in t.name.split("+"):
+                            t.reason = (f"{cand.name} dropped in the backward check: without it held-out NRMSE "
+                                        f"{E_r:.4g} vs {E_full:.4g} with it")
+                    added = [([c], current, tr) for c in keep for (cs, _, tr) in added if c in cs]
                     current = fr_r
                     current_spec = _with_fit(spec_r, fr_r)
                     removed = True
                     break
         T["search"] = time.perf_counter() - t0 - T["calibrate"]
-        final = current
-        return Diagnosis(self.rec, self.prob, self.test_prob, self.train, self.test, floors, nominal, final, added,
-                         trials, sc, T)
+        flat_added = [(c, fr, tr) for cs, fr, tr in added for c in cs]
+        D = Diagnosis(self.rec, self.prob, self.test_prob, self.train, self.test, floors, nominal, current,
+                      flat_added, trials, sc, T)
+        E = float(np.sqrt(np.mean(self._test_errors(current) ** 2)))
+        fl = float(np.sqrt(np.mean(floor_n ** 2)))
+        if fl > 0 and E > self.far * fl:
+            D.unexplained = E / fl
+        return D
+
+
+def init_sdof(rec: Record, spec: ModelSpec) -> None:
+    """Starting values of free SDOF parameters by equation error: least squares of
+    ``m·ẍ + c·ṡ + k·s = gain·u + offset`` with derivatives of the measured position (central differences).
+    Only used when mass, stiffness or damping is free and a force input and a position are measured; kept
+    only when they simulate better than the given/default values.  (They become the model's nominal values:
+    the car is built, and its ride height set, with them.)"""
+    free = {f.name: f for f in spec.free}
+    names = [n for n in ("sprung_mass", "damping", "spring_stiffness") if n in free]
+    if not names or "pos" not in rec.outputs or "force" not in rec.inputs:
+        return
+    dt = rec.dt
+    x = rec.outputs["pos"]
+    base = rec.inputs.get("base", np.zeros_like(x))
+    acc = np.empty_like(x)
+    acc[1:-1] = (x[2:] - 2 * x[1:-1] + x[:-2]) / dt ** 2
+    acc[0], acc[-1] = acc[1], acc[-2]
+    s = x - base
+    sd = np.gradient(s, dt)
+    u = rec.inputs["force"]
+    cols = {"sprung_mass": acc, "damping": sd, "spring_stiffness": s}
+    rhs = u * spec.P.get("input.gain", 1.0) - sum(spec.P[n] * cols[n] for n in cols if n not in free)
+    A = np.stack([cols[n] for n in names] + [-np.ones_like(u)], axis=1)
+    sol, *_ = np.linalg.lstsq(A, rhs, rcond=None)
+    P_eq = dict(spec.P)
+    for n, val in zip(names, sol):
+        P_eq[n] = abs(val) if n == "sprung_mass" else max(val, 0.0)
+    if "input.offset" in free:
+        P_eq["input.offset"] = float(sol[-1])
+    if not P_eq["sprung_mass"] > 0:
+        return
+    m = min(len(x), 20000)
+    err = []
+    for PP in (spec.P, P_eq):
+        sp = spec.copy()
+        sp.P = dict(PP)
+        chk = Problem(rec.slice(0, m), sp)
+        err.append(np.mean(list(chk.nrmse(chk.simulate(sp, PP), 0, m).values())))
+    if not err[1] < err[0]:
+        return
+    for n in names:
+        spec.P[n] = P_eq[n]
+        free[n].init = float(P_eq[n])
+        if P_eq[n] > 0:
+            free[n].scale = float(P_eq[n])
+        if n == "sprung_mass":
+            free[n].lo = 1e-6 * P_eq[n]
+    if "input.offset" in free:
+        free["input.offset"].init = float(sol[-1])
+        free["input.offset"].scale = max(float(np.std(u)) * 0.01, 1e-12)
+        spec.P["input.offset"] = float(sol[-1])

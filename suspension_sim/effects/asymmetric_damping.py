@@ -11,6 +11,7 @@ from ..components import Params
 from ..errors import ScenarioError
 from ..registry import EFFECTS
 from ._common import PerCornerNonNeg, corner_array, kernel_pack
+from ..free_parameters import FreeParameter
 from .base import Effect
 
 
@@ -118,6 +119,9 @@ class AsymmetricDamping(Effect):
 
     Params = AsymmetricDampingParams
     target = "suspension"
+    # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
+    free_parameters = {"c_comp": FreeParameter("c", init=0.1, starts=(0.1, 0.0)),
+                       "c_reb": FreeParameter("c", init=0.0, starts=(0.0, 0.1))}
     signature = ("residual force vs travel rate has a kink at v=0 (different compression/rebound slopes) or a "
                  "map shape; mean travel drifts (jacking/packing down) under symmetric excitation")
 

@@ -8,6 +8,7 @@ from pydantic import Field
 from ..components import Params
 from ..registry import EFFECTS
 from ._common import PerCornerNonNeg, corner_array, kernel_pack
+from ..free_parameters import FreeParameter
 from .base import Effect
 
 
@@ -43,6 +44,9 @@ class Backlash(Effect):
 
     Params = BacklashParams
     target = "suspension"
+    # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
+    free_parameters = {"stiffness": FreeParameter("max(k, F/s)", init=0.2),
+                       "play": FreeParameter("s", init=0.1, size=False)}
     signature = ("residual force vs travel is a parallelogram: flat for 2·b after each reversal, then slope k_b; "
                  "dead band (free motion) at reversals")
 

@@ -10,6 +10,7 @@ from pydantic import Field
 from ..components import Params
 from ..registry import EFFECTS
 from ._common import PerCornerNonNeg, PerCornerPos, corner_array, kernel_pack
+from ..free_parameters import FreeParameter
 from .base import Effect
 
 
@@ -68,6 +69,9 @@ class BumpStop(Effect):
 
     Params = BumpStopParams
     target = "suspension"
+    # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
+    free_parameters = {"gap": FreeParameter("s_max", init=0.7, lo=1e-6, starts=(0.5, 0.8), size=False),
+                       "stiffness": FreeParameter("max(k, F/s)", init=2.0)}
     signature = ("residual force vs travel is zero inside a band and steep outside; travel clipped near ±gap; "
                  "body-acceleration spikes at end of stroke")
 

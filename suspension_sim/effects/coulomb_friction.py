@@ -11,6 +11,7 @@ from pydantic import Field, model_validator
 from ..components import Params
 from ..registry import EFFECTS
 from ._common import PerCornerNonNeg, PerCornerPos, corner_array, reduced_mass, kernel_pack
+from ..free_parameters import FreeParameter
 from .base import Effect
 
 
@@ -92,6 +93,9 @@ class CoulombFriction(Effect):
 
     Params = CoulombFrictionParams
     target = "suspension"
+    # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
+    free_parameters = {"force": FreeParameter("F", init=0.05)}
+    fit_settings = {"law": "stick_slip"}
     signature = ("force step of 2·F_c at travel-rate reversal (residual vs velocity is a step through 0); "
                  "stick/dead band in travel on small inputs; flat spots at reversals")
 

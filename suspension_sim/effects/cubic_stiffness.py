@@ -7,6 +7,7 @@ from pydantic import Field
 from ..components import Params
 from ..registry import EFFECTS
 from ._common import PerCornerReal, corner_array, kernel_pack
+from ..free_parameters import FreeParameter
 from .base import Effect
 
 
@@ -39,6 +40,8 @@ class CubicStiffness(Effect):
 
     Params = CubicStiffnessParams
     target = "suspension"
+    # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
+    free_parameters = {"k3": FreeParameter("F/s**3", init=0.0, lo=None)}
     signature = ("residual force vs travel is an odd cubic s³; resonance frequency shifts with amplitude "
                  "(Duffing), odd harmonics 3f under sine input")
 

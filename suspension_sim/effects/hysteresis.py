@@ -8,6 +8,7 @@ from pydantic import Field
 from ..components import Params
 from ..registry import EFFECTS
 from ._common import PerCornerNonNeg, PerCornerPos, corner_array, kernel_pack
+from ..free_parameters import FreeParameter
 from .base import Effect
 
 
@@ -73,6 +74,9 @@ class Hysteresis(Effect):
 
     Params = HysteresisParams
     target = "suspension"
+    # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
+    free_parameters = {"force": FreeParameter("F", init=0.05),
+                       "x_y": FreeParameter("s", init=0.2, lo=1e-3, size=False)}
     signature = ("residual force vs travel forms a rate-independent loop with rounded corners (width ~x_y) "
                  "after reversals; loop area independent of travel rate")
 

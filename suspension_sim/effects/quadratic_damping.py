@@ -8,6 +8,7 @@ from pydantic import Field
 from ..components import Params
 from ..registry import EFFECTS
 from ._common import PerCornerNonNeg, corner_array, kernel_pack
+from ..free_parameters import FreeParameter
 from .base import Effect
 
 
@@ -40,6 +41,8 @@ class QuadraticDamping(Effect):
 
     Params = QuadraticDampingParams
     target = "suspension"
+    # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
+    free_parameters = {"c_v": FreeParameter("F/v**2", init=0.05)}
     signature = ("residual force vs travel rate is an odd parabola v|v| (same in compression and rebound); "
                  "extra damping grows with stroke speed, resonance peaks drop more than linearly with amplitude")
 

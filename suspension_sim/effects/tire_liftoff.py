@@ -6,6 +6,7 @@ import numpy as np
 
 from ..registry import EFFECTS
 from ._common import kernel_pack
+from ..free_parameters import FreeParameter
 from .base import Effect
 
 
@@ -39,6 +40,8 @@ class TireLiftoff(Effect):
     """
 
     target = "tire"
+    # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
+    free_parameters = {}
     signature = ("tire force clipped at zero total load (dynamic load flat at −static); wheel in free flight, "
                  "landing impacts; only on large inputs near wheel hop")
 

@@ -1,0 +1,52 @@
+"""Free-parameter declarations: how ``suspension-sim diagnose`` may fit a component's parameters.
+
+An effect (or actuator) that carries a class attribute ``free_parameters = {param: FreeParameter(...)}`` is a
+candidate of the discrepancy workflow with no edit in :mod:`suspension_sim.diagnose`: the workflow adds it
+to the model, fits the declared parameters (with everything already free) and names it when it explains
+the data.  ``fit_settings`` (optional dict) fixes the effect's other settings for the fit (e.g. the friction
+law).  The signature the effect leaves in data is its ``signature`` attribute.
+
+A declaration is in units of a *data scale*, an expression of the magnitudes the workflow measures on the
+nominal model's simulation of the record: ``s`` (RMS travel, m), ``s_max`` (largest |travel|), ``v`` (RMS
+travel rate, m/s), ``F`` (RMS linear suspension force, N), ``k`` (spring stiffness, N/m), ``c`` (damping,
+N·s/m); ``"1"`` means SI units.  Example (bump stops): the gap starts at 0.7·s_max, the stiffness at
+2·max(k, F/s)::
+
+    free_parameters = {"gap": FreeParameter("s_max", init=0.7, lo=1e-6, starts=(0.5, 0.8)),
+                       "stiffness": FreeParameter("max(k, F/s)", init=2.0)}
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class FreeParameter:
+    """One fitted parameter.  ``init``, ``lo``, ``hi`` and ``starts`` are multiples of ``scale`` (an
+    expression of the data scales); ``lo``/``hi`` None = unbounded.  ``starts``: alternative starting values
+    (multi-start; the k-th start of every parameter that has them is used together).  ``size``: the
+    parameter measures how strong the effect is (an effect whose sizes are indistinguishable from zero is
+    pruned).  ``candidate``: the candidate's name when it is not the component's (actuators: one candidate
+    per parameter); ``target``: where the value goes when it is not the component's parameter of that name
+    (``input.delay``: the measured force input is shifted in time)."""
+
+    scale: str = "1"
+    init: float = 0.0
+    lo: float | None = 0.0
+    hi: float | None = None
+    starts: tuple = ()
+    size: bool = True
+    candidate: str | None = None
+    target: str | None = None
+
+    def value(self, x: float, scales: dict) -> float:
+        return float(x) * scale_of(self.scale, scales)
+
+
+def scale_of(expr: str, scales: dict) -> float:
+    """The value of a scale expression (``"F/v**2"``) for the data scales given."""
+    v = eval(expr, {"__builtins__": {}, "max": max, "min": min, "abs": abs}, dict(scales))  # noqa: S307
+    v = float(v)
+    if not v == v or v in (float("inf"), float("-inf")) or v == 0.0:
+        return 1e-12 if v == 0.0 else 1.0
+    return abs(v)
