@@ -147,6 +147,7 @@ def test_candidates_come_from_the_registry_declarations():
 
 
 # ------------------------------------------------------------------------------------------------ workflow
+@pytest.mark.slow  # minutes on a loaded 2-core machine (MuJoCo ensemble fits)
 def test_no_hidden_effect_names_nothing(tmp_path):
     d = truth.simulate_truth("sdof", 8, 500, {}, seed=11, road_rms=0.0, force_rms=400.0, noise=0.02,
                              outputs=["pos", "acc"])
@@ -155,6 +156,7 @@ def test_no_hidden_effect_names_nothing(tmp_path):
     assert "nothing is named" in rep["verdict"]
 
 
+@pytest.mark.slow  # minutes on a loaded 2-core machine (MuJoCo ensemble fits)
 def test_coulomb_friction_named_alone_quarter_car(tmp_path):
     rng = np.random.default_rng(21)
     Fc = float(rng.uniform(100, 250))
@@ -177,6 +179,7 @@ def test_coulomb_friction_named_alone_quarter_car(tmp_path):
     json.loads((tmp_path / "report.json").read_text())
 
 
+@pytest.mark.slow  # minutes on a loaded 2-core machine (MuJoCo ensemble fits)
 def test_cubic_stiffness_named_alone_sdof(tmp_path):
     rng = np.random.default_rng(31)
     k3 = float(rng.uniform(2e7, 6e7))

@@ -8,6 +8,7 @@ import json
 import warnings
 
 import numpy as np
+import pytest
 import yaml
 
 from suspension_sim.diagnose import diagnose, truth
@@ -45,6 +46,7 @@ def test_half_car_engine_matches_independent_truth():
     assert max(err.values()) < 0.01, err
 
 
+@pytest.mark.slow  # minutes on a loaded 2-core machine (MuJoCo ensemble fits)
 def test_half_car_bump_stop_named_and_confirmed_in_mujoco(tmp_path):
     d = truth.simulate_truth_half(6.0, 400.0, {"bump_stop": {"gap": 0.012, "stiffness": 8e4}}, seed=3, noise=0.02,
                                   outputs=OUTS)
@@ -62,6 +64,7 @@ def test_half_car_bump_stop_named_and_confirmed_in_mujoco(tmp_path):
     assert json.loads((tmp_path / "report.json").read_text())["effects"][0]["name"] == "bump_stop"
 
 
+@pytest.mark.slow  # minutes on a loaded 2-core machine (MuJoCo ensemble fits)
 def test_half_car_no_hidden_effect_names_nothing(tmp_path):
     d = truth.simulate_truth_half(6.0, 400.0, {}, seed=4, noise=0.02, outputs=OUTS)
     rep = diagnose(_rec(d, OUTS), HC, tmp_path, confirm=False, plots=False)

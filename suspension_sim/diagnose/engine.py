@@ -394,7 +394,6 @@ class Engine:
         """Damper element: measured force = −(−k·s − c·v + Σ effect forces) at the prescribed motion."""
         from ..components import stack_params, validate_params
         from ..effects.base import EffectContext
-        from ..kernels import broadcast_effect, call
 
         n = len(psets)
         s = np.ascontiguousarray(self.inputs["disp"][:n_samples], float)
@@ -419,13 +418,16 @@ class Engine:
             eff = ecls(stack_params(plist, 1), ctx)
             p, st = eff.kernel_data()
             p, st = np.ascontiguousarray(p, float), np.ascontiguousarray(st, float)
-            outk = np.zeros((n, 1))
-            kern = type(eff).kernel
-            for i in range(n_samples):
-                call(broadcast_effect, kern, np.full((n, 1), s[i]), np.full((n, 1), v[i]), i * self.dt_rec,
-                     self.dt_rec, p, st, outk)
-                F[:, i] += outk[:, 0]
+            _series(type(eff).kernel, s, v, self.dt_rec, p, st, F)
         return (-F)[:, :, None]
+
+
+@numba.njit(cache=False)
+def _series(kernel, s, v, dt, p, st, out):
+    """out[i, k] += kernel(s[k], v[k], k·dt, dt, p[i, 0], st[i, 0]) along a prescribed motion, every set i."""
+    for k in range(s.shape[0]):
+        for i in range(p.shape[0]):
+            out[i, k] += kernel(s[k], v[k], k * dt, dt, p[i, 0], st[i, 0])
 
 
 def declared_effects() -> dict:

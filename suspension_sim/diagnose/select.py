@@ -384,6 +384,14 @@ class Selector:
         fl = float(np.sqrt(np.mean(floor_n ** 2)))
         if fl > 0 and E > self.far * fl:
             D.unexplained = E / fl
+            try:
+                from .beyond import propose
+
+                D.proposal = propose(D, current)
+            except Exception as err:  # the proposal is advice: never lose the diagnosis over it
+                D.proposal = {"error": f"{type(err).__name__}: {err}"}
+            if D.proposal:
+                self.log(f"beyond the library: {D.proposal.get('equation')}")
         return D
 
 

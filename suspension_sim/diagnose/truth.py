@@ -86,6 +86,8 @@ def _suspension_extra(effects: dict, s, v, st):
             F += -p["force"] * st["w"]
         elif name == "backlash":
             F += -p["stiffness"] * st["y"]
+        elif name == "stroke_damping":  # not in the library: damping that grows with the stroke, −c_s·s²·v
+            F += -p["c_s"] * s * s * v
     return F
 
 
@@ -202,7 +204,8 @@ def simulate_truth_half(duration: float, fs: float, effects: dict, params: dict 
                         wheelbase_delay: float = 0.15, band=(0.3, 15.0)):
     """A synthetic half-car record (bounce z, pitch θ positive nose down, front wheel at x = +a, rear at −b).
     The rear road is the front road delayed by ``wheelbase_delay`` (a car driving at (a + b)/delay).  Every
-    hidden effect acts at both corners with the same parameters (stateless effects and ``tire_liftoff``).
+    hidden effect acts at both corners with the same parameters (stateless effects and ``tire_liftoff``),
+    unless its parameters say ``axle: front`` or ``axle: rear`` (then on that axle only).
 
     Written from the Lagrangian of the rigid body independently of the fast simulator: with the corner
     heights z_c = z − x_c·θ, the body equations are M·z̈ = Σ F_c and I·θ̈ = −Σ x_c·F_c."""
@@ -231,7 +234,8 @@ def simulate_truth_half(duration: float, fs: float, effects: dict, params: dict 
             zu, vu = X[4 + 2 * j], X[5 + 2 * j]
             s = z - xc * th - zu
             v = vz - xc * vth - vu
-            F = -p[f"spring_stiffness_{e}"] * s - p[f"damping_{e}"] * v + _suspension_extra(eff, s, v, {})
+            mine = {k: q for k, q in eff.items() if q.get("axle", e) == e}
+            F = -p[f"spring_stiffness_{e}"] * s - p[f"damping_{e}"] * v + _suspension_extra(mine, s, v, {})
             r, rd = road_at(tt, d)
             st = (M * share + p[f"unsprung_mass_{e}"]) * G
             ft = st - p[f"tire_stiffness_{e}"] * (zu - r) - p[f"tire_damping_{e}"] * (vu - rd)

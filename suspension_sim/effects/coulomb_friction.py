@@ -94,8 +94,10 @@ class CoulombFriction(Effect):
     Params = CoulombFrictionParams
     target = "suspension"
     # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
-    free_parameters = {"force": FreeParameter("F", init=0.05)}
-    fit_settings = {"law": "stick_slip"}
+    # (the smooth law with its v_eps fitted: a fit needs a force that is differentiable in its parameters)
+    free_parameters = {"force": FreeParameter("F", init=0.05),
+                       "v_eps": FreeParameter("v", init=0.05, lo=0.01, hi=0.5, size=False)}
+    fit_settings = {"law": "tanh"}
     signature = ("force step of 2·F_c at travel-rate reversal (residual vs velocity is a step through 0); "
                  "stick/dead band in travel on small inputs; flat spots at reversals")
 

@@ -1,0 +1,62 @@
+"""Hard cases of the discrepancy workflow from the project's truth generator (benchmarks/diagnose_hard.py):
+compound effects, a heavier car with sag, an actuator lag without false friction, a null record with
+coloured noise and a sensor bias, a second vehicle and excitation, a half car with an effect on one axle,
+a law beyond the library.  Each takes minutes: marked slow."""
+from __future__ import annotations
+
+import sys
+import warnings
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+warnings.filterwarnings("ignore", category=RuntimeWarning)
+
+pytestmark = pytest.mark.slow
+
+
+def _run(name, tmp_path):
+    import diagnose_hard
+
+    return diagnose_hard.run_case(name, 0, out=str(tmp_path))
+
+
+def test_compound_friction_and_bump_stops_both_named(tmp_path):
+    r = _run("compound", tmp_path)
+    assert r["exact"], r
+    assert r["shrink"] > 0.8 and not r["worse_channels"], r
+
+
+def test_heavier_car_named_as_mass_from_its_sag(tmp_path):
+    r = _run("heavier", tmp_path)
+    assert r["exact"], r
+    assert abs(r["params"]["parameter:sprung_mass"]["sprung_mass"] / 377.0 - 1) < 0.05, r
+    assert not r["worse_channels"], r
+
+
+def test_actuator_lag_named_without_false_friction(tmp_path):
+    r = _run("lag", tmp_path)
+    assert r["exact"], r
+    assert abs(r["params"]["actuator_lag"]["time_constant"] / 0.03 - 1) < 0.1, r
+
+
+def test_null_record_with_coloured_noise_and_bias_names_nothing(tmp_path):
+    r = _run("null_coloured", tmp_path)
+    assert r["named"] == [], r
+
+
+def test_second_vehicle_and_excitation(tmp_path):
+    r = _run("vehicle2", tmp_path)
+    assert r["exact"], r
+
+
+def test_half_car_effect_on_one_axle_placed_there(tmp_path):
+    r = _run("half_axle", tmp_path)
+    assert r["exact"], r
+    assert not r["worse_channels"], r
+
+
+def test_law_beyond_the_library_is_proposed_not_named(tmp_path):
+    r = _run("beyond", tmp_path)
+    assert r["unexplained"] is not None and r["proposal"] and "s^2*v" in r["proposal"], r
