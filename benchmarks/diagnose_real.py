@@ -47,13 +47,13 @@ def silverbox(out: Path, real: Path = REAL, log=print) -> dict:
     lin = rep["model_before"]["free"]
     for name, rows in (("arrow_full", (100, 40575)), ("arrow_no_extrapolation", (100, 32100))):
         rec = load_record(str(f), "sdof", rows=rows, **kw)
-        prob = Problem(rec, skip=50, omega_max=Problem.omega_max(fitted))
-        sim = prob.simulate(fitted.P)
+        prob = Problem(rec, fitted, skip=50)
+        sim = prob.simulate(fitted, fitted.P)
         res["rmse_mV"][f"{name}_after"] = 1e3 * prob.rmse(sim, 0, len(rec))["pos"]
         lin_spec = load_model({"model": "sdof", "params": {k: v for k, v in lin.items()
                                                            if k in ("sprung_mass", "spring_stiffness", "damping")},
                                "inputs": {"force_offset": lin.get("force_offset", 0.0)}})
-        sim0 = prob.simulate(lin_spec.P)
+        sim0 = Problem(rec, lin_spec, skip=50).simulate(lin_spec, lin_spec.P)
         res["rmse_mV"][f"{name}_before"] = 1e3 * prob.rmse(sim0, 0, len(rec))["pos"]
     return res
 

@@ -45,6 +45,19 @@ class Problem:
             self.set_offsets(spec)
         self._engines: dict = {}
 
+    @staticmethod
+    def omega_max(spec: ModelSpec) -> float:
+        """Fastest natural frequency (rad/s) of the nominal model, roughly: the stiffest spring (suspension
+        plus tire) on the lightest mass."""
+        P = spec.P
+        masses = [v for n, v in P.items() if "mass" in n and "." not in n and v > 0]
+        tire = [v for n, v in P.items() if n.startswith("tire_stiffness")]
+        spring = [v for n, v in P.items() if n.startswith("spring_stiffness")]
+        if not masses:
+            return 0.0
+        k = (max(tire) if tire else 0.0) + (max(spring) if spring else 0.0)
+        return float(np.sqrt(max(k, 0.0) / min(masses)))
+
     def set_offsets(self, spec: ModelSpec):
         """Channels with a free offset: non-position channels (sensor bias) unless ``offsets: false``; the
         position channels when they are zeroed at the measured ride height."""

@@ -42,14 +42,16 @@ def _base(name: str) -> str:
 
 def check_model(spec, source: str | None = None) -> None:
     """Refuse non-physical parameters in the model file (negative mass, non-finite values)."""
-    from .model import NOMINAL, POSITIVE
+    from .model import positive, vehicle_params
 
     src = source or getattr(spec, "source", None) or None
-    for name, slot in NOMINAL.get(spec.kind, {}).items():
-        v = float(spec.P[slot])
+    for name in vehicle_params(spec.kind):
+        if name not in spec.P:
+            continue
+        v = float(spec.P[name])
         if not np.isfinite(v):
             raise ScenarioError(f"must be a finite number (got {v})", source=src, field=f"params.{name}")
-        if name in POSITIVE and spec.kind != "damper" and v <= 0:
+        if positive(name) and spec.kind != "damper" and v <= 0:
             what = "mass" if "mass" in name else "value"
             raise ScenarioError(f"a {what} must be > 0 (got {v:g})", source=src, field=f"params.{name}")
         if v < 0:
@@ -139,8 +141,8 @@ def _ratios(rec, spec) -> dict[str, float]:
 
     n = min(len(rec), 20000)
     sub = rec.slice(0, n)
-    prob = Problem(sub, omega_max=Problem.omega_max(spec))
-    sim = prob.simulate(spec.P)
+    prob = Problem(sub, spec)
+    sim = prob.simulate(spec, spec.P)
     out = {}
     skip = n // 10
     for i, c in enumerate(prob.channels):
