@@ -43,7 +43,7 @@ def _check_options(model: Path, split: float, fs, max_effects: int, candidates) 
         from ..diagnose.candidates import library
         from ..diagnose.model import load_model
 
-        known = {c.name for c in library(load_model(str(model)).kind)} | {"parameter"}
+        known = {c.name.split("@")[0] for c in library(load_model(str(model)))} | {"parameter"}
         names = [c.strip() for c in candidates.split(",") if c.strip()]
         bad = [c for c in names if c not in known]
         if bad or not names:
