@@ -22,14 +22,20 @@ def _num(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
+def _is_bool(v) -> bool:
+    import numpy as np
+
+    return isinstance(v, (bool, np.bool_))  # numpy's bool too
+
+
 def problem(raw: Any, val: Any) -> str | None:
     """What is wrong with ``raw`` having become ``val`` (None if nothing)."""
-    if isinstance(raw, bool):
+    if _is_bool(raw):
         if _num(val):
             return f"expects a number, got the boolean {str(raw).lower()}"
         return None
     if isinstance(val, bool):
-        if not isinstance(raw, bool):
+        if not _is_bool(raw):
             return f"expects true or false, got {raw!r}"
         return None
     if _num(val) and isinstance(raw, str):

@@ -445,3 +445,21 @@ def test_plausibility_override_flag_fits_anyway(record, tmp_path):
                 "--candidates", "coulomb_friction", "--max-effects", "1"])
     assert res.exit_code == 0, res.output
     assert "warning: plausibility: body_acc" in res.stdout
+
+
+def test_strict_values_refuse_lax_conversions_but_take_numpy_scalars():
+    from suspension_sim.config import parse_scenario
+    from suspension_sim.errors import ScenarioError
+
+    d = {k: v for k, v in SC.items() if k != "variants"}
+    sc = parse_scenario({**d, "controller": {**d["controller"], "full_state": np.True_},
+                         "vehicle": {"model": "quarter_car", "params": {"sprung_mass": np.float64(300.0)}}})
+    assert sc.controller.full_state is True
+    for path, bad, text in ((("controller", "full_state"), 1, "true or false"),
+                            (("vehicle", "params"), {"sprung_mass": True}, "boolean"),
+                            (("sim",), {"duration": "2"}, "string")):
+        raw = {**d, path[0]: {**d.get(path[0], {}), **({path[1]: bad} if len(path) > 1 else bad)}}
+        with pytest.raises(ScenarioError, match=text):
+            from suspension_sim.config import check_components
+
+            check_components(parse_scenario(raw))
