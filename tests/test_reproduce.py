@@ -122,3 +122,23 @@ def test_reproduce_lin(tmp_path):
     for f in ("fig4", "fig5"):
         assert s[f]["key"]["dev_adaptive"] < 0.6 * s[f]["key"]["dev_nonadaptive"]
         assert s[f]["convergence"]["dev_adaptive"]["converged"]
+
+
+@pytest.mark.slow
+def test_reproduce_thesis(tmp_path):
+    r = runner.invoke(app, ["reproduce", "thesis", "--out", str(tmp_path), "-q"])
+    assert r.exit_code == 0, r.output
+    d = tmp_path / "thesis"
+    for png in d.glob("*.png"):
+        assert png.stat().st_size < 150_000, png
+    s = json.loads((d / "summary.json").read_text())
+    k3 = s["ch3_load_step"]["key"]
+    # the printed structure sags metres; the θ_d variant holds the level; passive sags m·g/K
+    assert k3["thesis_sag"] < -2.0 and abs(k3["mrac_level"]) < 0.01 and k3["passive_sag"] < -0.28
+    # Ch. 4: level held, model following not better than passive (friction lock)
+    assert abs(s["ch4_load_step"]["key"]["mrac_level"]) < 0.02
+    k7 = s["ch7_braking"]["key"]
+    assert k7["asym_mrac_bounce"] < 0.1 * k7["asym_passive_bounce"]
+    assert k7["mrac_pitch_deg"] < 0.2 * k7["passive_dive_deg"]
+    for item in ("ch3_load_step", "ch7_braking"):
+        assert all(c["converged"] for c in s[item]["convergence"].values()), item
