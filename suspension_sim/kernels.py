@@ -90,6 +90,27 @@ def call(broadcaster, law, *args):
     return out
 
 
+def pack(shape, *arrays) -> np.ndarray:
+    """Stack arrays (each broadcastable to ``shape``, e.g. ``(n_cars, n_corners)``) along a last axis into the
+    float64, C-contiguous ``shape + (len(arrays),)`` array of a kernel's ``p`` or ``st`` row block; no arrays
+    give a ``shape + (0,)`` array."""
+    shape = tuple(shape)
+    out = np.empty(shape + (len(arrays),), dtype=np.float64)
+    for j, a in enumerate(arrays):
+        out[..., j] = np.broadcast_to(np.asarray(a, dtype=np.float64), shape)
+    return out
+
+
+def optional(value) -> np.ndarray:
+    """A stacked optional parameter (None, an array, or a per-car list mixing None and numbers) as floats with
+    NaN where it is not given (for ``np.where(np.isnan(x), default, x)``)."""
+    if value is None:
+        return np.asarray(np.nan)
+    if isinstance(value, list):
+        return np.asarray([np.nan if v is None else v for v in value], dtype=float).reshape(len(value), -1)
+    return np.asarray(value, dtype=float)
+
+
 def f64(a) -> np.ndarray:
     """``a`` as a float64, C-contiguous, writeable array (a copy only when needed)."""
     a = np.asarray(a, dtype=np.float64)

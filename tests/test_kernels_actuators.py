@@ -1,262 +1,248 @@
-"""The actuators' compiled kernels (suspension_sim/compiled) against their Python methods, step by step.
+"""Each actuator's law (its numba kernels, broadcast over the ensemble by ``Actuator.force``/``advance``)
+against the physics written out by hand: the ideal actuator's delay line, lag, rate limit and saturation,
+the hydraulic valve flow equation and cylinder force, the reluctance force law and current references.
 
-Each case drives the Python actuator and its kernels (``kernel_force``/``kernel_advance`` on the arrays of
-``kernel_data``) with the same command / travel / travel-rate sequences (``check_actuator``) and asserts that
-forces and every kernel state agree exactly (0.0) where the kernel does the same floating-point operations,
-or to 1e-12 relative where a transcendental function (exp, tanh, sqrt is exact) is evaluated by numba's libm
-instead of numpy's.  Each case also checks, on the Python actuator, that its inputs really reach the branch
-it is meant to exercise (saturation, rate limit, end stops, ...), so a kernel cannot pass on a trivial input."""
+Also: a car inside an ensemble of cars with other parameters behaves as the car alone, the Python loop runs
+the same kernels as the compiled loop (bit for bit, tanh and exp included), and an actuator written in plain
+numpy, without kernels, still runs (in the Python loop).
+"""
 from __future__ import annotations
 
-import copy
+import math
 
 import numpy as np
 import pytest
 
-from suspension_sim.actuators.base import ActuatorContext
+from suspension_sim.actuators.base import Actuator, ActuatorContext
+from suspension_sim.actuators.electromagnetic import ElectromagneticActuator
+from suspension_sim.actuators.hydraulic import HydraulicActuator
+from suspension_sim.actuators.ideal import IdealActuator
 from suspension_sim.components import stack_params
-from suspension_sim.compiled.testing import check_actuator
+from suspension_sim.config import parse_scenario
+from suspension_sim.registry import ACTUATORS
+from suspension_sim.simulation import Simulation
 
 DT = 5e-4
-CONTROL_DT = 1e-3
 
 
-def build(acls, params: list[dict], nc: int, dt: float = DT, static=None):
+def build(acls, params: list[dict], nc: int = 1, dt: float = DT):
     """The actuator as simulation.py builds it: stacked per-car params and an ActuatorContext."""
     n = len(params)
     plist = [acls.Params(**kw) for kw in params]
-    static = np.zeros((n, nc)) if static is None else np.broadcast_to(static, (n, nc)).copy()
-    return acls(stack_params(plist, nc), ActuatorContext(n, nc, dt, CONTROL_DT, static))
+    return acls(stack_params(plist, nc), ActuatorContext(n, nc, dt, 2 * dt, np.zeros((n, nc))))
 
 
-def held(rng, n_steps, shape, lo, hi, hold=2):
-    """Commands held over a control step (``hold`` physics steps), uniformly random in [lo, hi]."""
-    n_ctl = -(-n_steps // hold)
-    u = rng.uniform(lo, hi, size=(n_ctl,) + shape)
-    return np.repeat(u, hold, axis=0)[:n_steps]
+def one(x, shape=(1, 1)):
+    return np.full(shape, float(x))
 
 
-def run_python(act, cmd, s, v, dt=DT):
-    """Forces and states of the Python actuator over the sequences (to check which branches they reach)."""
-    a = copy.deepcopy(act)
-    a.reset()
-    F, states = [], []
-    for k, (u, sk, vk) in enumerate(zip(cmd, s, v)):
-        F.append(np.array(a.force(u, sk, vk, k * dt), dtype=float))
-        a.advance(u, sk, vk, k * dt, dt)
-        states.append({name: np.array(x, dtype=float) for name, x in a.states().items()})
-    return np.array(F), {name: np.array([st[name] for st in states]) for name in states[0]}
-
-
-def kernel_layout_ok(act):
-    p, st = act.kernel_data()
-    shape = (act.ctx.n_cars, act.ctx.n_corners)
-    for a in (p, st):
-        assert a.dtype == np.float64 and a.flags.c_contiguous and a.shape[:2] == shape
-    idx = act.kernel_states()
-    assert set(idx) >= set(act.states()) - {"force"}
-    assert all(0 <= j < st.shape[2] for j in idx.values())
+def par(act, name):
+    """A stacked parameter of a lone car as a float."""
+    return float(np.squeeze(getattr(act.p, name)))
 
 
 # ---------------------------------------------------------------------------------------------------------
-# ideal: delay -> lag -> rate limit -> saturation
-from suspension_sim.actuators.ideal import IdealActuator  # noqa: E402
-
-IDEAL_CASES = {
-    "all_single": ([dict(delay=0.004, time_constant=0.01, rate_limit=1e5, max_force=300.0)], 1),
-    "all_ensemble": ([dict(delay=0.002, time_constant=0.0, rate_limit=1e5, max_force=300.0),
-                      dict(delay=0.0, time_constant=0.005, rate_limit=5e4, max_force=500.0),
-                      dict(delay=0.0035, time_constant=0.02, rate_limit=2e4, max_force=200.0)], 4),
-    "lag_sat_ensemble": ([dict(time_constant=0.002, max_force=250.0), dict(time_constant=0.0, max_force=400.0),
-                          dict(time_constant=0.03, max_force=150.0)], 2),
-    "rate_only": ([dict(rate_limit=3e5), dict(rate_limit=1e5), dict(rate_limit=6e5)], 2),
-    "delay_only": ([dict(delay=0.0015), dict(delay=0.0)], 4),
-    "pass_through": ([{}, {}, {}], 2),
-}
-
-
-@pytest.mark.parametrize("case", list(IDEAL_CASES))
-def test_ideal_kernel_is_exact(case):
-    params, nc = IDEAL_CASES[case]
-    act = build(IdealActuator, params, nc)
-    kernel_layout_ok(act)
-    rng = np.random.default_rng(1)
-    n_steps = 400
-    shape = (len(params), nc)
-    cmd = held(rng, n_steps, shape, -1000.0, 1000.0)
-    cmd[150:250] = np.linspace(-800, 800, 100)[:, None, None]  # a slow ramp between the jumps
-    s = rng.normal(0, 0.01, (n_steps,) + shape)
-    v = rng.normal(0, 0.1, (n_steps,) + shape)
-    assert check_actuator(act, cmd, s, v) == 0.0
-    F, _ = run_python(act, cmd, s, v)
-    dF = np.abs(np.diff(F, axis=0))
-    for i, kw in enumerate(params):  # the inputs reach every non-ideality the car has
-        if kw.get("max_force"):
-            assert np.max(np.abs(F[:, i])) == kw["max_force"]
-        if kw.get("rate_limit"):
-            assert np.isclose(np.max(dF[:, i]), kw["rate_limit"] * DT, rtol=1e-9)
-        if not any(kw.get(k) for k in ("max_force", "rate_limit", "time_constant")):
-            lag = act.n_delay
-            np.testing.assert_array_equal(F[lag:, i], cmd[:n_steps - lag, i])  # pure (ensemble-wide) delay
+def test_ideal_delay_lag_rate_and_saturation_by_hand():
+    """Delay of 2 steps, then F_k = a·F_{k−1} + (1 − a)·u with a = exp(−dt/τ), |ΔF| <= rate·dt, |F| <= F_max."""
+    tau, rate, fmax = 0.002, 1e5, 300.0
+    act = build(IdealActuator, [dict(delay=2 * DT, time_constant=tau, rate_limit=rate, max_force=fmax)])
+    a = math.exp(-DT / tau)
+    line, F, seen = [0.0, 0.0, 0.0], 0.0, []
+    cmds = [1000.0] * 12 + [-50.0] * 20 + [20.0] * 10
+    for k, u in enumerate(cmds):
+        line = line[1:] + [u]
+        lagged = a * F + (1 - a) * line[0]
+        F = min(max(F + min(max(lagged - F, -rate * DT), rate * DT), -fmax), fmax)
+        got = act.force(one(u), one(0.0), one(0.0), k * DT)[0, 0]
+        act.advance(one(u), one(0.0), one(0.0), k * DT, DT)
+        assert got == pytest.approx(F, rel=1e-12, abs=1e-9), k
+        assert act.states()["force"][0, 0] == got
+        seen.append(got)
+    assert seen[:3] == [0.0, 0.0, 50.0] and max(seen) == fmax and min(seen) < 0  # delay, rate limit, saturation
 
 
-def relative_errors(act, cmd, s, v, dt=DT):
-    """Like check_actuator, but per quantity: {name: max |kernel − Python| / max |Python|} for the force and
-    every kernel state (for kernels that call exp/tanh, which numba and numpy may round differently)."""
-    py = copy.deepcopy(act)
-    py.reset()
-    kn = copy.deepcopy(act)
-    kn.reset()
-    p, st = kn.kernel_data()
-    idx = kn.kernel_states()
-    diff, scale = {}, {}
-
-    def acc(name, ref, got):
-        ref = np.broadcast_to(np.asarray(ref, dtype=float), got.shape)
-        diff[name] = max(diff.get(name, 0.0), float(np.max(np.abs(ref - got))))
-        scale[name] = max(scale.get(name, 0.0), float(np.max(np.abs(ref))))
-
-    for k, (u, sk, vk) in enumerate(zip(cmd, s, v)):
-        t = k * dt
-        f_py = np.array(py.force(u, sk, vk, t), dtype=float)
-        py.advance(u, sk, vk, t, dt)
-        f_kn = np.empty(u.shape)
-        for i in range(u.shape[0]):
-            for c in range(u.shape[1]):
-                f_kn[i, c] = kn.kernel_force(u[i, c], sk[i, c], vk[i, c], t, dt, p[i, c], st[i, c])
-                kn.kernel_advance(u[i, c], sk[i, c], vk[i, c], t, dt, p[i, c], st[i, c])
-        acc("force()", f_py, f_kn)
-        sp = py.states()
-        for name, j in idx.items():
-            acc(name, sp[name], st[:, :, j])
-    return {name: diff[name] / scale[name] if scale[name] > 0 else diff[name] for name in diff}
+def _hyd_state(act):
+    st = act.states()
+    return st["load_pressure"][0, 0], st["spool_position"][0, 0]
 
 
-# ---------------------------------------------------------------------------------------------------------
-# hydraulic: spool lag with end stops, trapezoidal pressure sub-steps (valve both ways, |P_L| beyond P_s),
-# optional tanh seal friction
-from suspension_sim.actuators.hydraulic import HydraulicActuator  # noqa: E402
-
-HYD_CASES = {
-    "single": ([dict(spool_time_constant=0.003)], 1),
-    "ensemble": ([dict(spool_time_constant=0.003, spool_limit=0.004, initial_pressure=1e6),
-                  dict(spool_limit=None, beta=3.0, area=4e-4, max_substep=1e-4),
-                  dict(spool_time_constant=0.01, spool_limit=0.006, supply_pressure=2e7, gamma=1e9)], 4),
-    "friction": ([dict(spool_time_constant=0.003, friction_max=250.0),
-                  dict(friction_max=0.0, friction_velocity=0.02, spool_limit=0.005),
-                  dict(spool_time_constant=0.005, friction_max=100.0, friction_velocity=0.005)], 2),
-}
-
-
-def hydraulic_inputs(shape, n_steps=600, dt=DT, seed=2):
-    """Spool commands: 0 for the first steps (closed valve, x_v = 0 exactly), then held random levels up to
-    ±2.5 cm (beyond the end stops, both ways); travel rate: a smooth random signal with bursts up to
-    ±0.6 m/s (which drive |P_L| beyond P_s against the closed or opposing valve); travel = its integral."""
-    rng = np.random.default_rng(seed)
-    cmd = held(rng, n_steps, shape, -0.025, 0.025, hold=40)
-    cmd[:20] = 0.0
-    v = np.cumsum(rng.normal(0, 0.02, (n_steps,) + shape), axis=0)
-    v[100:130] += 0.6
-    v[300:330] -= 0.6
-    s = np.concatenate([np.zeros((1,) + shape), np.cumsum(v * dt, axis=0)[:-1]])
-    return cmd, s, v
+@pytest.mark.parametrize("P0,u,v", [(3e6, 2e-4, 0.05), (-2e6, -1.5e-4, -0.1),
+                                    (-1.2e7, -2.5e-4, 0.02)])  # |P_L| > P_s against the open valve: w3 < 0
+def test_hydraulic_valve_flow_equation(P0, u, v):
+    """dP_L/dt = −β·P_L − α·A·v + γ·x_v·sgn(D)·sqrt|D|, D = P_s − sgn(x_v)·P_L (Lin & Kanellakopoulos Eq. 7):
+    the change of P_L over a 1 ns step, from a state with the spool open, against the right-hand side."""
+    kw = dict(beta=2.0, initial_pressure=P0, spool_limit=None, spool_time_constant=5e-4)
+    act = build(HydraulicActuator, [kw])
+    beta, alpha, area, gamma, Ps = (par(act, k) for k in ("beta", "alpha", "area", "gamma", "supply_pressure"))
+    s = 0.0
+    act.force(one(u), one(s), one(0.0), 0.0)
+    act.advance(one(u), one(s), one(0.0), 0.0, 5e-4)  # opens the spool (travel held: v = 0)
+    P1, xv = _hyd_state(act)
+    assert np.sign(xv) == np.sign(u) and abs(xv) > 0.2 * abs(u)
+    h = 1e-9
+    act.advance(one(u), one(s), one(v), 5e-4, h)
+    P2, _ = _hyd_state(act)
+    D = Ps - math.copysign(1.0, xv) * P1
+    rhs = -beta * P1 - alpha * area * v + gamma * xv * math.copysign(math.sqrt(abs(D)), D)
+    assert (P2 - P1) / h == pytest.approx(rhs, rel=1e-5)
+    assert abs(gamma * xv * math.sqrt(abs(D))) > 0.1 * abs(rhs)  # the valve term matters here
+    assert (D < 0) == (P0 < -1e7)
 
 
-def check_hydraulic_branches(act, cmd, s, v, dt=DT):
-    _, st = run_python(act, cmd, s, v, dt)
-    P, xv = st["load_pressure"], st["spool_position"]
-    Ps = np.broadcast_to(act.p.supply_pressure, xv.shape[1:])
-    assert np.all(xv[0] == 0.0)  # the closed-valve branch (sgn x_v = 0)
-    assert np.all(np.max(xv, axis=0) > 0) and np.all(np.min(xv, axis=0) < 0)  # valve opened both ways
-    assert np.all(np.max(np.abs(P), axis=0) > 0.5 * Ps)  # pressure builds up
-    assert np.any(np.sign(xv) * P > Ps)  # w3 with P_s − sgn(x_v)·P_L < 0
-    lim = act.xlim
-    hit = np.isfinite(lim)
-    assert np.any(hit)
-    assert np.all((np.max(np.abs(xv), axis=0) == lim)[hit])  # end stops reached
+def test_hydraulic_spool_lag_and_end_stop():
+    """x_v → u exponentially with τ, clipped at the end stop."""
+    act = build(HydraulicActuator, [dict(spool_time_constant=0.003, spool_limit=0.004)])
+    act.advance(one(0.003), one(0.0), one(0.0), 0.0, 0.002)
+    assert _hyd_state(act)[1] == pytest.approx(0.003 * (1 - math.exp(-0.002 / 0.003)), rel=1e-12)
+    act.advance(one(0.02), one(0.0), one(0.0), 0.002, 0.01)
+    assert _hyd_state(act)[1] == 0.004
 
 
-@pytest.mark.parametrize("case", ["single", "ensemble"])
-def test_hydraulic_kernel_is_exact(case):
-    """Without friction the kernels are bit-identical: the spool's exp factors at the physics step are
-    numpy's own values, precomputed in kernel_data; the rest is + − × ÷ and sqrt (correctly rounded)."""
-    params, nc = HYD_CASES[case]
-    act = build(HydraulicActuator, params, nc)
-    kernel_layout_ok(act)
-    cmd, s, v = hydraulic_inputs((len(params), nc))
-    check_hydraulic_branches(act, cmd, s, v)
-    assert check_actuator(act, cmd, s, v) == 0.0
+def test_hydraulic_force_and_seal_friction():
+    """F = A·P_L − F_f,max·tanh(v/v_f); the oil spring: P_L drops by α·A·Δtravel when the rod moves."""
+    p = dict(initial_pressure=2e6, friction_max=250.0, friction_velocity=0.01)
+    act = build(HydraulicActuator, [p])
+    A, alpha = par(act, "area"), par(act, "alpha")
+    F = act.force(one(0.0), one(0.01), one(0.004), 0.0)[0, 0]
+    assert F == pytest.approx(A * 2e6 - 250.0 * math.tanh(0.4), rel=1e-9)
+    assert act.states()["friction_force"][0, 0] == pytest.approx(250.0 * math.tanh(0.4), rel=1e-14)
+    F = act.force(one(0.0), one(0.0100001), one(-0.02), 0.0)[0, 0]  # 0.1 µm more travel, same G
+    assert F == pytest.approx(A * (2e6 - alpha * A * 1e-7) + 250.0 * math.tanh(2.0), rel=1e-9)
 
 
-def test_hydraulic_kernel_friction_and_other_step():
-    """tanh (friction) and exp (spool, when advance gets a dt other than the physics step) are numba's libm
-    against numpy's SIMD versions: within 1e-12 relative; everything without them stays exact."""
-    params, nc = HYD_CASES["friction"]
-    act = build(HydraulicActuator, params, nc)
-    cmd, s, v = hydraulic_inputs((len(params), nc), n_steps=400)
-    check_hydraulic_branches(act, cmd, s, v)
-    rel = relative_errors(act, cmd, s, v)
-    assert rel["load_pressure"] == 0.0 and rel["spool_position"] == 0.0 and rel["hydraulic_force"] == 0.0
-    assert rel["friction_force"] <= 1e-12 and rel["force"] <= 1e-12 and rel["force()"] <= 1e-12
-    F, _ = run_python(act, cmd, s, v)
-    assert np.max(np.abs(F)) > 0
-    # advance with dt = half the context's physics step: exp(−s/τ) from math.exp, sub-step count recomputed
-    params, nc = HYD_CASES["ensemble"]
-    act = build(HydraulicActuator, params, nc)
-    cmd, s, v = hydraulic_inputs((len(params), nc), n_steps=400, dt=DT / 2)
-    rel = relative_errors(act, cmd, s, v, dt=DT / 2)
-    assert max(rel.values()) <= 1e-12, rel
+def test_electromagnetic_force_law_and_references():
+    """i_r = sqrt(F/p(x)) on the unit that carries the demand (x = x0 ∓ s clipped to the stroke), at most i_max;
+    once the currents settle, F = p(x_push)·i_push² − p(x_pull)·i_pull² equals the demand."""
+    def p_of(x):
+        return 0.197 - 1.94 * x + 26.34 * x ** 2 - 239.54 * x ** 3
+
+    act = build(ElectromagneticActuator, [{}])
+    for F_d, s in [(400.0, 0.01), (-250.0, -0.02), (800.0, 0.06)]:  # s = 0.06: x_push = −0.01 → x_min = 0
+        act.reset()
+        for k in range(400):
+            act.advance(one(F_d), one(s), one(0.0), k * DT, DT)
+        st = act.states()
+        x_push, x_pull = min(max(0.05 - s, 0.0), 0.1), min(max(0.05 + s, 0.0), 0.1)
+        if F_d > 0:
+            assert st["current_ref_push"][0, 0] == pytest.approx(math.sqrt(F_d / p_of(x_push)), rel=1e-12)
+            assert st["current_ref_pull"][0, 0] == 0.0
+        else:
+            assert st["current_ref_pull"][0, 0] == pytest.approx(math.sqrt(-F_d / p_of(x_pull)), rel=1e-12)
+        F = act.force(one(F_d), one(s), one(0.0), 400 * DT)[0, 0]
+        i_p, i_q = st["current_push"][0, 0], st["current_pull"][0, 0]
+        assert F == pytest.approx(p_of(x_push) * i_p ** 2 - p_of(x_pull) * i_q ** 2, rel=1e-12)
+        assert F == pytest.approx(F_d, rel=1e-4)
+    act.reset()
+    act.advance(one(1e5), one(0.0), one(0.0), 0.0, DT)
+    assert act.states()["current_ref_push"][0, 0] == par(act, "i_max")
 
 
 # ---------------------------------------------------------------------------------------------------------
-# electromagnetic: force law p(x)·i², current references with the i_max limit, PI current loops with voltage
-# saturation, anti-windup and the i >= 0 clamp
-from suspension_sim.actuators.electromagnetic import ElectromagneticActuator  # noqa: E402
-
-EM_CASES = {
-    "single": ([{}], 1),
-    "ensemble": ([dict(i_max=60.0, x_max=0.12, substeps=1),  # x_max past the root of p(x): the 1e-6 floor
-                  dict(u_max=24.0, bandwidth=60.0, x0=0.04, substeps=3, resistance=0.3, inductance=0.004),
-                  dict(i_max=150.0, x_min=0.01, x_max=0.09, bandwidth=150.0)], 4),
-    "explicit_gains_pull_only": ([dict(Ti=0.002, Ki=0.5, push_pull=False),
-                                  dict(Ti=0.004, Ki=1.5, push_pull=False, i_max=80.0),
-                                  dict(Ti=0.001, Ki=0.0, push_pull=False, u_max=30.0)], 2),
+ENSEMBLES = {
+    IdealActuator: [dict(delay=0.002, time_constant=0.0, rate_limit=1e5, max_force=300.0),
+                    dict(time_constant=0.005, max_force=500.0), dict(delay=0.0035, time_constant=0.02)],
+    HydraulicActuator: [dict(spool_time_constant=0.003, spool_limit=0.004, initial_pressure=1e6),
+                        dict(spool_limit=None, beta=3.0, area=4e-4, max_substep=1e-4, friction_max=100.0),
+                        dict(spool_time_constant=0.01, spool_limit=0.006, supply_pressure=2e7, gamma=1e9)],
+    ElectromagneticActuator: [dict(i_max=60.0, x_max=0.12, substeps=3),
+                              dict(u_max=24.0, bandwidth=60.0, x0=0.04, substeps=3, Ti=0.002, Ki=0.5),
+                              dict(i_max=150.0, x_min=0.01, x_max=0.09, bandwidth=150.0, substeps=3)],
 }
+SCALE = {IdealActuator: 1000.0, HydraulicActuator: 0.02, ElectromagneticActuator: 3000.0}
 
 
-def em_inputs(shape, n_steps=800, seed=3):
-    """Force demands held over 10 control steps, up to ±3000 N (beyond i_max at x0, both signs, so each unit
-    is driven up and then freewheels to 0); travel up to ±8 cm (cores clipped at both stroke ends)."""
-    rng = np.random.default_rng(seed)
-    cmd = held(rng, n_steps, shape, -3000.0, 3000.0, hold=20)
-    k = np.arange(n_steps)[:, None, None]
-    s = 0.08 * np.sin(2 * np.pi * k / 500.0 + rng.uniform(0, 6, shape))
-    v = 0.08 * 2 * np.pi / (500.0 * DT) * np.cos(2 * np.pi * k / 500.0 + rng.uniform(0, 6, shape))
-    return cmd, s, v
+@pytest.mark.parametrize("acls", list(ENSEMBLES), ids=lambda c: c.__name__)
+def test_a_car_in_an_ensemble_is_the_car_alone(acls):
+    """Forces and states of each car of a mixed ensemble (optional limits given for some cars only, different
+    delays) equal those of the car built alone (the ensemble-wide sub-step counts are the same here)."""
+    params = ENSEMBLES[acls]
+    rng = np.random.default_rng(2)
+    steps, nc = 400, 2
+    cmd = np.repeat(rng.uniform(-1, 1, (steps // 20, 3, nc)), 20, axis=0) * SCALE[acls]
+    v = np.cumsum(rng.normal(0, 0.02, (steps, 3, nc)), axis=0)
+    s = np.cumsum(v * DT, axis=0)
+    ens = build(acls, params, nc)
+    alone = [build(acls, [kw], nc) for kw in params]
+    for k in range(steps):
+        fe = ens.force(cmd[k], s[k], v[k], k * DT)
+        ens.advance(cmd[k], s[k], v[k], k * DT, DT)
+        se = ens.states()
+        for i, a in enumerate(alone):
+            sl = slice(i, i + 1)
+            np.testing.assert_array_equal(fe[i], a.force(cmd[k, sl], s[k, sl], v[k, sl], k * DT)[0])
+            a.advance(cmd[k, sl], s[k, sl], v[k, sl], k * DT, DT)
+            for nm, val in a.states().items():
+                np.testing.assert_array_equal(se[nm][i], val[0])
+    assert np.all(np.any(fe != 0, axis=1))
 
 
-@pytest.mark.parametrize("case", list(EM_CASES))
-def test_electromagnetic_kernel_is_exact(case):
-    params, nc = EM_CASES[case]
-    act = build(ElectromagneticActuator, params, nc)
-    kernel_layout_ok(act)
-    cmd, s, v = em_inputs((len(params), nc))
-    assert check_actuator(act, cmd, s, v) == 0.0
-    # the inputs reach every branch: reference limit, voltage saturation both ways, i >= 0 clamp, stroke ends
-    _, st = run_python(act, cmd, s, v)
-    i_max = np.broadcast_to(act.p.i_max, st["current_ref_pull"].shape[1:])
-    umax = np.broadcast_to(act.p.u_max, st["voltage_pull"].shape[1:])
-    units = ["pull"] if not act.p.push_pull else ["push", "pull"]
-    for unit in units:
-        assert np.all(np.max(st[f"current_ref_{unit}"], axis=0) == i_max)
-        assert np.any(np.max(st[f"voltage_{unit}"], axis=0) == umax)
-        assert np.any(np.min(st[f"voltage_{unit}"], axis=0) == -umax)
-        assert np.all(np.max(st[f"current_{unit}"], axis=0) > 0)
-    # the i >= 0 clamp: a current that has been driven up comes back to exactly 0 (not with the default
-    # critically damped loop of the single car, whose current decays to 0 without undershoot)
-    assert case == "single" or any(np.any((st[f"current_{u}"] == 0.0) & (np.maximum.accumulate(st[f"current_{u}"], axis=0) > 0))
-               for u in units)
-    if not act.p.push_pull:
-        assert np.all(st["current_push"] == 0.0)
-    x_push = act.p.x0 - s
-    assert np.any(x_push < act.p.x_min) and np.any(x_push > act.p.x_max)
+def test_every_actuator_has_kernels():
+    for name in ACTUATORS.names():
+        cls = ACTUATORS.get(name)
+        assert cls.kernel_force is not None and cls.kernel_advance is not None, name
+
+
+# ---------------------------------------------------------------------------------------------------------
+def _scenario(actuator, controller=None, duration=0.4, effects=()):
+    return parse_scenario({
+        "name": "act", "vehicle": {"model": "quarter_car", "effects": list(effects)},
+        "road": {"type": "sine", "params": {"amplitude": 0.03, "frequency": 2.0}, "speed": 20.0},
+        "sensors": [{"type": "corner_body_vel"}, {"type": "travel_rate"}],
+        "actuator": actuator,
+        "controller": controller or {"type": "skyhook", "params": {"c_sky": 2500.0}},
+        "sim": {"duration": duration, "seed": 1}})
+
+
+def _run(scs, compiled, monkeypatch):
+    monkeypatch.setenv("SUSPENSION_SIM_COMPILED", "1" if compiled else "0")
+    sim = Simulation(scs)
+    return sim, sim.run()
+
+
+@pytest.mark.parametrize("actuator", [
+    {"type": "ideal", "params": {"time_constant": 0.003, "max_force": 800.0, "rate_limit": 2e5, "delay": 0.001}},
+    {"type": "hydraulic", "params": {"friction_max": 250.0, "spool_time_constant": 0.003}},
+    {"type": "electromagnetic", "params": {}},
+], ids=lambda a: a["type"])
+def test_python_loop_equals_compiled_loop(actuator, monkeypatch):
+    """The two loops run the same kernels: every channel bit for bit (the hydraulic seal friction's tanh and
+    the spool's exp included)."""
+    ctrl = {"type": "open_loop", "params": {"signal": "sine", "amplitude": 0.004, "frequency": 3.0}} \
+        if actuator["type"] == "hydraulic" else None
+    scs = [_scenario(actuator, ctrl)]
+    sim_c, rc = _run(scs, True, monkeypatch)
+    sim_p, rp = _run(scs, False, monkeypatch)
+    assert sim_c.loop in ("full", "hybrid") and sim_p.loop == "python"
+    assert rp[0].ts["actuator_force"].abs().max() > 10.0
+    assert rp[0].ts.equals(rc[0].ts)
+
+
+def test_actuator_in_plain_numpy_runs_in_the_python_loop(monkeypatch):
+    """A user's actuator without kernels: its numpy force/advance/states drive the Python loop (the compiled
+    loop declines it, naming it) and it matches the built-in ideal actuator with the same lag."""
+    if "_test_numpy_lag" not in ACTUATORS._items:
+        @ACTUATORS.register("_test_numpy_lag")
+        class NumpyLag(Actuator):
+            Params = IdealActuator.Params
+
+            def reset(self):
+                self.F = np.zeros((self.ctx.n_cars, self.ctx.n_corners))
+                self.a = np.exp(-self.ctx.dt / np.asarray(self.p.time_constant, dtype=float))
+
+            def force(self, command, travel, travel_rate, t):
+                self.F = self.a * self.F + (1 - self.a) * command
+                return self.F
+
+            def advance(self, command, travel, travel_rate, t, dt):
+                pass
+
+            def states(self):
+                return {"force": self.F}
+
+    sim_u, ru = _run([_scenario({"type": "_test_numpy_lag", "params": {"time_constant": 0.004}})], True, monkeypatch)
+    sim_b, rb = _run([_scenario({"type": "ideal", "params": {"time_constant": 0.004}})], True, monkeypatch)
+    assert sim_u.loop == "python" and "_test_numpy_lag" in sim_u.loop_reason and sim_b.loop == "full"
+    a, b = ru[0].ts, rb[0].ts
+    assert b["actuator_force"].abs().max() > 10.0
+    for col in ("body_z", "travel", "actuator_force"):
+        np.testing.assert_allclose(a[col], b[col], rtol=0, atol=1e-12 * b[col].abs().max())

@@ -1,220 +1,220 @@
-"""Compiled effect kernels (suspension_sim.compiled) against the numpy ``force`` methods.
+"""Each effect's law (its numba kernel, broadcast over the ensemble by ``Effect.force``) against the physics
+written out by hand, at chosen points: the force law of the effect's docstring evaluated with ``math``,
+per corner and per car, in every branch (both stops, sticking and slipping, inside and beyond a damper map).
 
-Each effect is built as ``simulation.py`` builds it (validated Params per car, stacked per corner) for a lone
-car and for an ensemble of cars with different (scalar and per-corner) parameters, driven through inputs
-that reach every branch of its force law, and ``check_effect`` compares force and logged signals step by
-step.  Kernels do the same floating-point operations in the same order as ``force``, so the difference must
-be exactly 0.0; where a kernel calls a transcendental function (named at the test) numpy and numba may
-differ by an ulp, and the bound is 1e-12 relative to the force scale.
+Also: a car inside an ensemble of cars with other parameters behaves as the car alone (the stacking of
+per-car parameters), the Python loop runs the same kernels as the compiled loop (bit for bit), and an effect
+written in plain numpy, without a kernel, still runs (in the Python loop).
 """
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import pytest
 
-from suspension_sim.compiled.testing import check_effect
 from suspension_sim.components import stack_params, validate_params
-from suspension_sim.effects.base import EffectContext
+from suspension_sim.config import parse_scenario
+from suspension_sim.effects.base import Effect, EffectContext
 from suspension_sim.registry import EFFECTS
+from suspension_sim.simulation import Simulation
 
-N_SEL = 4
 DT = 5e-4
 
 
-def build(name, raws, n_sel=N_SEL, **ctx_over):
+def build(name, raws, n_sel=2, **ctx_over):
+    """The effect as simulation.py builds it: validated Params per car, stacked per corner."""
     cls = EFFECTS.get(name)
     plist = [validate_params(cls.Params, raw, "x") for raw in raws]
     n = len(plist)
-    rng = np.random.default_rng(7)
     ctx = dict(n_cars=n, corners=[f"c{i}" for i in range(n_sel)], dt=DT,
-               static_suspension_force=rng.uniform(2000, 3000, (n, n_sel)),
-               static_tire_force=rng.uniform(3000, 4000, (n, n_sel)),
-               spring_stiffness=rng.uniform(15000, 20000, (n, n_sel)),
-               damping=rng.uniform(800, 1200, (n, n_sel)),
-               tire_stiffness=rng.uniform(150000, 250000, (n, n_sel)),
-               tire_damping=rng.uniform(0, 200, (n, n_sel)),
-               effective_mass=rng.uniform(40, 60, (n, n_sel)))
+               static_suspension_force=np.full((n, n_sel), 2500.0), static_tire_force=np.full((n, n_sel), 3400.0),
+               spring_stiffness=np.full((n, n_sel), 17000.0), damping=np.full((n, n_sel), 1000.0),
+               tire_stiffness=np.full((n, n_sel), 190000.0), tire_damping=np.full((n, n_sel), 150.0),
+               effective_mass=np.full((n, n_sel), 50.0))
     ctx.update(ctx_over)
     return cls(stack_params(plist, n_sel), EffectContext(**ctx))
 
 
-def sine_inputs(n_cars, amp, freq=2.0, steps=1200, noise=0.0, seed=0):
-    """Travel s = amp·sin(2π f t + phase) per corner (phases/amplitude factors differ per car and corner)
-    and its exact rate, as (steps, n_cars, N_SEL) sequences; optional random jitter on both."""
-    rng = np.random.default_rng(seed)
-    t = np.arange(steps)[:, None, None] * DT
-    ph = rng.uniform(0, 2 * np.pi, (1, n_cars, N_SEL))
-    a = amp * rng.uniform(0.7, 1.3, (1, n_cars, N_SEL))
-    w = 2 * np.pi * freq
-    s = a * np.sin(w * t + ph)
-    v = a * w * np.cos(w * t + ph)
-    if noise:
-        s = s + noise * rng.standard_normal(s.shape)
-        v = v + noise * 50 * rng.standard_normal(v.shape)
-    return s, v
-
-
-def with_specials(s, v):
-    """Add exact zeros (v = 0, s = 0) so sign/branch ties are exercised."""
-    s, v = s.copy(), v.copy()
-    v[::50, 0, 0] = 0.0
-    s[::70, 0, -1] = 0.0
-    return s, v
-
-
-def run(eff, s, v):
-    return check_effect(eff, list(s), list(v), dt=DT)
+def f(eff, s, v, t=0.0):
+    """One call of force() with s, v given as nested lists (n_cars, n_sel)."""
+    return eff.force(np.array(s, dtype=float), np.array(v, dtype=float), t, DT)
 
 
 # ------------------------------------------------------------------------------------------------------
-def test_quadratic_damping():
-    for raws in ([{"c_v": 300.0}], [{"c_v": 250.0}, {"c_v": [100.0, 200.0, 300.0, 400.0]}, {"c_v": 0.0}]):
-        eff = build("quadratic_damping", raws)
-        s, v = with_specials(*sine_inputs(len(raws), 0.05, steps=400))
-        assert run(eff, s, v) == 0.0
+def test_quadratic_damping_law():
+    eff = build("quadratic_damping", [{"c_v": 250.0}, {"c_v": [100.0, 400.0]}])
+    v = [[-1.2, 0.3], [0.0, -0.05]]
+    ref = [[-250.0 * -1.2 * 1.2, -250.0 * 0.3 * 0.3], [0.0, -400.0 * -0.05 * 0.05]]
+    np.testing.assert_allclose(f(eff, [[0.1, 0.0], [0.0, 0.0]], v), ref, rtol=1e-15)
 
 
-def test_bump_stop():
-    # (an optional gap given for some cars and not others does not stack: each car sets both or none)
-    ens = [{"gap": 0.05, "gap_compression": 0.05, "stiffness": 40000.0, "damping": 2000.0},
-           {"gap": [0.04, 0.05, 0.06, 0.07], "gap_compression": 0.03, "stiffness": [1e4, 2e4, 3e4, 4e4]},
-           {"gap": 0.06, "gap_compression": [0.02, 0.03, 0.04, 0.05], "damping": [0.0, 500.0, 1500.0, 3000.0]}]
-    for raws in ([ens[0]], ens):
-        eff = build("bump_stop", raws)
-        # amplitude beyond both gaps: both stops engage, with damping large enough to clip to zero
-        s, v = with_specials(*sine_inputs(len(raws), 0.09, freq=3.0, steps=800))
-        p, _ = eff.kernel_data()
-        assert np.any(s < -p[..., 0]) and np.any(s > p[..., 1])
-        assert run(eff, s, v) == 0.0
+def test_asymmetric_damping_coefficients_law():
+    eff = build("asymmetric_damping", [{"c_comp": 800.0, "c_reb": 2400.0}, {"c_comp": [500.0, 0.0], "c_reb": 1500.0}])
+    v = [[0.2, -0.2], [-0.1, 0.4]]
+    ref = [[-2400.0 * 0.2, 800.0 * 0.2], [500.0 * 0.1, -1500.0 * 0.4]]  # rebound v > 0, compression v < 0
+    np.testing.assert_allclose(f(eff, np.zeros((2, 2)), v), ref, rtol=1e-15)
+    assert np.all(f(eff, np.zeros((2, 2)), np.zeros((2, 2))) == 0.0)
 
 
-def python_signals(eff, s, v, name):
-    """The Python effect's signal ``name`` after each step (to check that the inputs reach every branch)."""
-    import copy
-    e = copy.deepcopy(eff)
-    e.reset()
-    out = []
-    for k in range(len(s)):
-        e.force(s[k].copy(), v[k].copy(), k * DT, DT)
-        out.append(np.broadcast_to(e.signals()[name], s[k].shape).copy())
-    return np.array(out)
+def _interp_by_hand(v, tab):
+    """F = −R(v): R through the [v, F] points, linear between them, the end segments continued."""
+    xs, fs = [p[0] for p in tab], [p[1] for p in tab]
+    j = 0 if v < xs[0] else len(xs) - 2 if v >= xs[-1] else max(i for i in range(len(xs) - 1) if xs[i] <= v)
+    return -(fs[j] + (fs[j + 1] - fs[j]) / (xs[j + 1] - xs[j]) * (v - xs[j]))
 
 
-def test_asymmetric_damping_coefficients():
-    ens = [{"c_comp": 800.0, "c_reb": 2400.0}, {"c_comp": [500.0, 600.0, 700.0, 800.0], "c_reb": 1500.0},
-           {"c_comp": 0.0, "c_reb": [1000.0, 0.0, 3000.0, 4000.0]}]
-    for raws in ([ens[0]], ens):
-        eff = build("asymmetric_damping", raws)
-        s, v = with_specials(*sine_inputs(len(raws), 0.05, steps=300))
-        assert np.any(v > 0) and np.any(v < 0) and np.any(v == 0)
-        assert run(eff, s, v) == 0.0
-
-
-def test_asymmetric_damping_map():
-    """Damper maps: velocities beyond both ends (extrapolation), exactly on map points, between them; cars with
-    maps of different lengths (padded p rows)."""
+def test_asymmetric_damping_map_law():
+    """Two cars with maps of different lengths: beyond both ends, on map points, between them."""
     tab1 = [[-1.0, -900.0], [-0.1, -300.0], [0.0, 0.0], [0.1, 500.0], [1.0, 1800.0]]
     tab2 = [[-0.5, -400.0], [0.0, 0.0], [0.3, 900.0]]
-    tab3 = [[-2.0, -1500.0], [-0.3, -450.0], [-0.05, -60.0], [0.0, 10.0], [0.05, 150.0], [0.4, 1100.0],
-            [1.5, 2500.0]]
-    for raws in ([{"table": tab1}], [{"table": tab1}, {"table": tab2}, {"table": tab3}],
-                 [{"table": tab2}] * 3):
-        eff = build("asymmetric_damping", raws)
-        s, v = sine_inputs(len(raws), 0.12, freq=3.0, steps=400)  # |v| up to ~3 m/s: beyond every map end
-        for i, r in enumerate(raws):  # exact map points
-            pts = np.array(r["table"])[:, 0]
-            v[:len(pts), i, 0] = pts
-        assert np.all(v.max(axis=(0, 2)) > 1.5) and np.all(v.min(axis=(0, 2)) < -2.0)
-        assert run(eff, s, v) == 0.0
+    eff = build("asymmetric_damping", [{"table": tab1}, {"table": tab2}])
+    pts = [-2.5, -1.0, -0.55, -0.1, -0.03, 0.0, 0.05, 0.1, 0.3, 0.7, 1.0, 3.0]
+    for v in pts:
+        got = f(eff, np.zeros((2, 2)), [[v, v], [v, v]])
+        assert got[0, 0] == pytest.approx(_interp_by_hand(v, tab1), rel=1e-13, abs=1e-9), v
+        assert got[1, 1] == pytest.approx(_interp_by_hand(v, tab2), rel=1e-13, abs=1e-9), v
+    assert f(eff, np.zeros((2, 2)), [[3.0, 0.0], [0.0, 0.0]])[0, 0] == pytest.approx(-(1800.0 + 1300.0 / 0.9 * 2.0))
 
 
-def test_backlash():
-    ens = [{"stiffness": 5000.0, "play": 0.002}, {"stiffness": [1e3, 2e3, 3e3, 4e3], "play": 0.004},
-           {"stiffness": 8000.0, "play": [0.0, 0.001, 0.003, 0.01]}]
-    for raws in ([ens[0]], ens):
-        eff = build("backlash", raws)
-        # a sine with jitter: many reversals, the play taken up in both directions and held in between
-        s, v = sine_inputs(len(raws), 0.01, freq=4.0, steps=1000, noise=2e-4)
-        y = python_signals(eff, s, v, "y")
-        p, _ = eff.kernel_data()
-        b = p[..., 1]
-        assert np.any(np.isclose(y, s - b)) and np.any(np.isclose(y, s + b))  # driven both ways
-        assert np.any(np.abs(y - s) < b - 1e-4)  # free motion inside the play
-        assert run(eff, s, v) == 0.0
+def test_coulomb_friction_tanh_law():
+    eff = build("coulomb_friction", [{"force": 150.0, "v_eps": 0.02}, {"force": [80.0, 200.0], "law": "tanh"}])
+    v = [[0.01, -0.5], [0.0, -0.003]]
+    ref = [[-150.0 * math.tanh(0.5), 150.0 * math.tanh(25.0)], [0.0, 200.0 * math.tanh(0.3)]]  # v_eps 0.01 default
+    np.testing.assert_allclose(f(eff, np.zeros((2, 2)), v), ref, rtol=1e-14)
+    np.testing.assert_allclose(eff.signals()["force"], ref, rtol=1e-14)
 
 
-def test_tire_liftoff():
-    for n in (1, 3):
-        eff = build("tire_liftoff", [{}] * n)
-        # wheel − road from equilibrium beyond F_static/k_t (0.012 … 0.027 m here): the wheel lifts
-        s, v = with_specials(*sine_inputs(n, 0.04, freq=8.0, steps=500))
-        lifted = python_signals(eff, s, v, "lifted")
-        assert lifted.min() == 0.0 and lifted.max() == 1.0
-        assert run(eff, s, v) == 0.0
+def test_coulomb_friction_stick_slip_law():
+    """Time stepping: F_k = clip(−m_r·(v_k/dt + a_k), −F_c, F_c), a_k = (v_k − v_{k−1})/dt − F_{k−1}/m_r."""
+    m_r, Fc = 50.0, 100.0
+    eff = build("coulomb_friction", [{"force": Fc}], n_sel=1)
+    F_prev, v_prev = 0.0, None
+    for v in (1e-4, 5e-4, 0.3, 0.25, -1e-4, 0.0):
+        a = 0.0 if v_prev is None else (v - v_prev) / DT - F_prev / m_r
+        ref = min(max(-m_r * (v / DT + a), -Fc), Fc)
+        got = f(eff, [[0.0]], [[v]])[0, 0]
+        assert got == pytest.approx(ref, rel=1e-12, abs=1e-12), v
+        assert eff.signals()["stuck"][0, 0] == (1.0 if abs(ref) < Fc * (1 - 1e-9) else 0.0)
+        F_prev, v_prev = ref, v
+    # the sequence both stuck (|F| < F_c) and slipped (F = ±F_c)
+    eff.reset()
+    assert abs(f(eff, [[0.0]], [[1e-4]])[0, 0]) < Fc and f(eff, [[0.0]], [[0.3]])[0, 0] == -Fc
 
 
-def test_coulomb_friction_stick_slip():
-    """Exact (no transcendental function): sticking (|F| < F_c) and slipping (F = ±F_c) both occur."""
-    ens = [{"force": 100.0}, {"force": [50.0, 100.0, 200.0, 400.0], "law": "stick_slip"}, {"force": 0.0}]
-    for raws in ([ens[0]], ens):
-        eff = build("coulomb_friction", raws)
-        # slow travel-rate wobble (sticks: the force needed to stop it is below F_c) plus fast bursts (slips)
-        s, v = sine_inputs(len(raws), 0.002, freq=1.0, steps=800)
-        v[300:500] *= 200.0
-        v[::97] = 0.0
-        stuck = python_signals(eff, s, v, "stuck")
-        assert stuck[:, 0].min() == 0.0 and stuck[:, 0].max() == 1.0
-        assert run(eff, s, v) == 0.0
+def test_bump_stop_law():
+    """max(0, k·(−g_c − s) − c·v) beyond the compression gap, min(0, −k·(s − g_e) − c·v) beyond the extension
+    gap, 0 inside; the damping never makes a stop pull."""
+    eff = build("bump_stop", [{"gap": 0.05, "gap_compression": 0.03, "stiffness": 40000.0, "damping": 2000.0}],
+                n_sel=1)
+    k, c, gc, ge = 40000.0, 2000.0, 0.03, 0.05
+    for s, v, ref, engaged in [(0.0, 1.0, 0.0, 0.0), (-0.029, -0.5, 0.0, 0.0), (0.049, 0.5, 0.0, 0.0),
+                               (-0.04, -0.2, k * 0.01 + c * 0.2, 1.0), (-0.04, 0.1, k * 0.01 - c * 0.1, 1.0),
+                               (-0.04, 0.5, 0.0, 1.0),  # separating fast: clipped to 0, no adhesion
+                               (0.07, 0.1, -k * 0.02 - c * 0.1, -1.0), (0.07, -0.5, 0.0, -1.0)]:
+        assert f(eff, [[s]], [[v]])[0, 0] == pytest.approx(ref, rel=1e-12, abs=1e-9), (s, v)
+        assert eff.signals()["engaged"][0, 0] == engaged
 
 
-def test_coulomb_friction_tanh_and_mixed():
-    """np.tanh (numpy SIMD) vs np.tanh in numba (libm): may differ by an ulp -> <= 1e-12·F_c."""
-    tanh = [{"force": 150.0, "v_eps": 0.02}, {"force": [80.0, 120.0, 160.0, 200.0], "v_eps": 0.05},
-            {"force": 300.0, "law": "tanh"}]
-    mixed = [{"force": 100.0}, {"force": 150.0, "v_eps": 0.02},
-             {"force": [50.0, 100.0, 200.0, 400.0], "law": "stick_slip"}]
-    for raws in ([tanh[0]], tanh, mixed):
-        eff = build("coulomb_friction", raws)
-        s, v = with_specials(*sine_inputs(len(raws), 0.002, freq=1.0, steps=600))
-        v[200:400] *= 100.0
-        assert run(eff, s, v) <= 1e-12 * 400.0
+def test_cubic_stiffness_law():
+    eff = build("cubic_stiffness", [{"k3": [1e6, -2e5]}])
+    np.testing.assert_allclose(f(eff, [[0.05, -0.1]], [[0.0, 0.0]]), [[-1e6 * 0.05 ** 3, -2e5 * 0.1 ** 3]], rtol=1e-14)
 
 
-def test_cubic_stiffness():
-    """numpy's s**3 (SIMD pow) vs libm pow in the kernel: may differ by an ulp -> <= 1e-12·max|F|."""
-    ens = [{"k3": 1e6}, {"k3": [-2e5, 5e5, 1e6, 3e6]}, {"k3": 0.0}]
-    for raws in ([ens[0]], ens):
-        eff = build("cubic_stiffness", raws)
-        s, v = with_specials(*sine_inputs(len(raws), 0.1, steps=400))
-        scale = 3e6 * 1.3 ** 3 * 0.1 ** 3
-        assert run(eff, s, v) <= 1e-12 * scale
+def test_tire_liftoff_law():
+    """Correction max(0, k_t·x + c_t·ẋ − F_static): zero while the tire pushes, cancels the pull when it lifts."""
+    eff = build("tire_liftoff", [{}], n_sel=1)
+    kt, ct, Fs = 190000.0, 150.0, 3400.0
+    for x, xd, lifted in [(0.0, 0.0, 0.0), (0.017, 0.0, 0.0), (0.018, 0.0, 1.0), (0.017, 2.0, 1.0), (0.03, -2.0, 1.0),
+                              (0.03, -20.0, 0.0)]:
+        ref = max(0.0, kt * x + ct * xd - Fs)
+        assert f(eff, [[x]], [[xd]])[0, 0] == pytest.approx(ref, rel=1e-12, abs=1e-9)
+        assert eff.signals()["lifted"][0, 0] == lifted
 
 
-def test_hysteresis():
-    """Loops: large strokes (saturation at ±F_h) and small reversals (unloading branch, w crossing 0).
-    np.exp in the loading branch -> <= 1e-12·max(F_h, 1)."""
-    ens = [{"force": 100.0, "x_y": 0.005}, {"force": [50.0, 100.0, 200.0, 400.0], "x_y": 0.002},
-           {"force": 300.0, "x_y": [0.001, 0.003, 0.01, 0.02]}]
-    for raws in ([ens[0]], ens):
-        eff = build("hysteresis", raws)
-        s, v = sine_inputs(len(raws), 0.03, freq=3.0, steps=800, noise=3e-4)
-        s[400:] *= 0.05  # small loops
-        idx = np.arange(60, len(s), 60)
-        s[idx] = s[idx - 1]  # zero increments (ds = 0)
-        w = python_signals(eff, s, v, "w")
-        assert w.max() > 0.99 and w.min() < -0.99 and np.any(np.abs(w[400:]) < 0.5)
-        assert run(eff, s, v) <= 1e-12 * 400.0
+def test_varying_stiffness_law():
+    eff = build("varying_stiffness", [{"amplitude": 2000.0, "frequency": 1.5, "phase": 0.3, "offset": 500.0}], n_sel=1)
+    for t in (0.0, 0.1, 0.77):
+        dk = 500.0 + 2000.0 * math.sin(2 * math.pi * 1.5 * t + 0.3)
+        assert eff.force(np.array([[0.02]]), np.zeros((1, 1)), t, DT)[0, 0] == pytest.approx(-dk * 0.02, rel=1e-13)
+        assert eff.signals()["dk"][0, 0] == pytest.approx(dk, rel=1e-13)
 
 
-def test_varying_stiffness():
-    """np.sin (numpy SIMD vs libm in the kernel) -> <= 1e-12·max(|dk|, |F|)."""
-    ens = [{"amplitude": 2000.0, "frequency": 1.5, "phase": 0.3, "offset": 500.0},
-           {"amplitude": [1000.0, 2000.0, 3000.0, 4000.0], "frequency": 3.0, "offset": -200.0},
-           {"amplitude": 0.0, "frequency": 0.0, "offset": [100.0, 0.0, -100.0, 300.0]}]
-    for raws in ([ens[0]], ens):
-        eff = build("varying_stiffness", raws)
-        s, v = with_specials(*sine_inputs(len(raws), 0.05, steps=600))
-        assert run(eff, s, v) <= 1e-12 * 5000.0
+def test_backlash_law():
+    """Play operator with b = 2 mm: the driven side y stays until the travel has taken up the play."""
+    eff = build("backlash", [{"stiffness": 5000.0, "play": 0.002}], n_sel=1)
+    path = [0.0, 0.001, 0.003, 0.002, -0.002, -0.005, -0.004]
+    y_ref = [0.0, 0.0, 0.001, 0.001, 0.0, -0.003, -0.003]
+    for s, y in zip(path, y_ref):
+        assert f(eff, [[s]], [[0.0]])[0, 0] == pytest.approx(-5000.0 * y, abs=1e-12)
+        assert eff.signals()["y"][0, 0] == pytest.approx(y, abs=1e-15)
+
+
+def test_hysteresis_law_against_the_bouc_wen_ode():
+    """The exact per-step update against dw/ds = (1 − |w|·(1 + sgn(ds·w))/2)/x_y integrated in fine steps
+    along a path with reversals (loading, unloading through w = 0, saturation)."""
+    Fh, xy = 100.0, 0.004
+    eff = build("hysteresis", [{"force": Fh, "x_y": xy}], n_sel=1)
+    t = np.arange(600) * DT
+    path = [0.02 * math.sin(2 * math.pi * 3.0 * tk) + 0.003 * math.sin(2 * math.pi * 17.0 * tk) for tk in t]
+    w, F = 0.0, []
+    for k, s in enumerate(path):
+        if k:
+            ds = (s - path[k - 1]) / 2000
+            for _ in range(2000):
+                sg = (ds * w > 0) - (ds * w < 0)  # sgn(ṡ·w)
+                w += ds * (1 - abs(w) * (1 + sg) / 2) / xy
+        F.append(f(eff, [[s]], [[0.0]])[0, 0])
+        assert F[-1] == pytest.approx(-Fh * w, abs=2e-3 * Fh), k
+    assert max(F) > 0.99 * Fh and min(F) < -0.99 * Fh
+
+
+# ------------------------------------------------------------------------------------------------------
+ENSEMBLES = {
+    "quadratic_damping": [{"c_v": 300.0}, {"c_v": [100.0, 400.0]}, {"c_v": 0.0}],
+    "asymmetric_damping": [{"table": [[-1.0, -900.0], [0.0, 0.0], [1.0, 1800.0]]}, {"c_comp": 500.0, "c_reb": 900.0},
+                           {"table": [[-0.5, -400.0], [0.0, 0.0], [0.1, 100.0], [0.3, 900.0]]}],
+    "coulomb_friction": [{"force": 100.0}, {"force": 150.0, "v_eps": 0.02}, {"force": [50.0, 400.0], "law": "stick_slip"}],
+    # (an optional gap given for some cars and not others does not stack: each car sets both or none)
+    "bump_stop": [{"gap": 0.01, "gap_compression": 0.01, "damping": 500.0},
+                  {"gap": [0.02, 0.005], "gap_compression": 0.004},
+                  {"gap": 0.015, "gap_compression": [0.02, 0.01], "stiffness": [1e4, 8e4]}],
+    "cubic_stiffness": [{"k3": 1e6}, {"k3": [-2e5, 3e6]}, {"k3": 0.0}],
+    "hysteresis": [{"force": 100.0, "x_y": 0.005}, {"force": [50.0, 200.0], "x_y": 0.002}, {"force": 0.0}],
+    "backlash": [{"stiffness": 5000.0, "play": 0.002}, {"stiffness": 8000.0, "play": [0.0, 0.004]}, {}],
+    "tire_liftoff": [{}, {}, {}],
+    "varying_stiffness": [{"amplitude": 2000.0, "frequency": 1.5}, {"offset": [100.0, -300.0]},
+                          {"amplitude": 500.0, "frequency": 3.0, "phase": 1.0}],
+}
+
+
+@pytest.mark.parametrize("name", sorted(ENSEMBLES))
+def test_a_car_in_an_ensemble_is_the_car_alone(name):
+    """Forces and signals of each car of a mixed ensemble equal those of the same car built alone."""
+    raws = ENSEMBLES[name]
+    rng = np.random.default_rng(5)
+    steps = 300
+    s = 0.03 * np.sin(np.arange(steps)[:, None, None] * 0.05 + rng.uniform(0, 6, (1, 3, 2)))
+    v = np.gradient(s, DT, axis=0) + rng.normal(0, 0.01, s.shape)
+    ens = build(name, raws)
+    alone = [build(name, [r]) for r in raws]
+    for k in range(steps):
+        fe = ens.force(s[k], v[k], k * DT, DT)
+        se = ens.signals()
+        for i, a in enumerate(alone):
+            np.testing.assert_array_equal(fe[i], a.force(s[k, i:i + 1], v[k, i:i + 1], k * DT, DT)[0])
+            for nm, val in a.signals().items():
+                np.testing.assert_array_equal(se[nm][i], val[0])
+    assert np.any(fe != 0) or name == "tire_liftoff"
+
+
+def test_reset_restarts_the_state():
+    eff = build("hysteresis", [{"force": 100.0, "x_y": 0.002}])
+    first = [f(eff, [[s, -s]], [[0.0, 0.0]]).copy() for s in (0.0, 0.01, 0.004)]
+    eff.reset()
+    again = [f(eff, [[s, -s]], [[0.0, 0.0]]).copy() for s in (0.0, 0.01, 0.004)]
+    np.testing.assert_array_equal(first, again)
+    assert np.any(np.array(first) != 0)
 
 
 def test_every_effect_has_a_kernel():
@@ -223,3 +223,78 @@ def test_every_effect_has_a_kernel():
             "cubic_stiffness", "hysteresis", "tire_liftoff", "varying_stiffness"} <= set(names)
     for name in names:
         assert EFFECTS.get(name).kernel is not None, name
+
+
+# ------------------------------------------------------------------------------------------------------
+ALL_EFFECTS = [
+    {"type": "quadratic_damping", "params": {"c_v": 300.0}},
+    {"type": "asymmetric_damping", "params": {"table": [[-1.0, -900.0], [-0.1, -300.0], [0.0, 0.0], [0.1, 500.0],
+                                                        [1.0, 1800.0]]}},
+    {"type": "coulomb_friction", "params": {"force": 80.0}},
+    {"type": "coulomb_friction", "params": {"force": 50.0, "v_eps": 0.05}},
+    {"type": "bump_stop", "params": {"gap": 0.02, "stiffness": 40000.0, "damping": 500.0}},
+    {"type": "cubic_stiffness", "params": {"k3": 1e6}},
+    {"type": "hysteresis", "params": {"force": 60.0, "x_y": 0.003}},
+    {"type": "backlash", "params": {"stiffness": 3000.0, "play": 0.002}},
+    {"type": "varying_stiffness", "params": {"amplitude": 2000.0, "frequency": 1.0, "offset": 100.0}},
+    {"type": "tire_liftoff", "params": {}},
+]
+
+
+def _scenario(effects, duration=0.4, amplitude=0.05, **over):
+    raw = {"name": "effects", "vehicle": {"model": "quarter_car", "effects": effects},
+           "road": {"type": "sine", "params": {"amplitude": amplitude, "frequency": 3.0}, "speed": 20.0},
+           "sensors": [{"type": "corner_body_vel"}], "controller": {"type": "skyhook", "params": {"c_sky": 2000.0}},
+           "sim": {"duration": duration, "seed": 1}}
+    raw.update(over)
+    return parse_scenario(raw)
+
+
+def _run(scs, compiled, monkeypatch):
+    monkeypatch.setenv("SUSPENSION_SIM_COMPILED", "1" if compiled else "0")
+    sim = Simulation(scs)
+    return sim, sim.run()
+
+
+def test_python_loop_equals_compiled_loop_with_every_effect(monkeypatch):
+    """Every effect at once, on a road that reaches the stops and lifts the wheel: the two loops run the same
+    kernels, so every logged channel is identical, bit for bit (tanh, sin, exp and pow included)."""
+    scs = [_scenario(ALL_EFFECTS)]
+    sim_c, rc = _run(scs, True, monkeypatch)
+    sim_p, rp = _run(scs, False, monkeypatch)
+    assert sim_c.loop == "full" and sim_p.loop == "python"
+    ts = rp[0].ts
+    assert ts["effect.bump_stop.engaged.0"].abs().max() == 1.0 and ts["effect.tire_liftoff.lifted.0"].max() == 1.0
+    assert rp[0].ts.equals(rc[0].ts)
+
+
+def test_effect_in_plain_numpy_runs_in_the_python_loop(monkeypatch):
+    """A user's effect without a kernel: its numpy force() and signals() drive the Python loop (the compiled
+    loop declines it, naming it), and it matches the built-in kernel of the same law."""
+    if "_test_numpy_quadratic" not in EFFECTS._items:
+        @EFFECTS.register("_test_numpy_quadratic")
+        class NumpyQuadratic(Effect):
+            Params = EFFECTS.get("quadratic_damping").Params
+
+            def reset(self):
+                self.c_v = np.asarray(self.p.c_v, dtype=float)
+                self.last = np.zeros((self.ctx.n_cars, len(self.ctx.corners)))
+
+            def force(self, s, v, t, dt):
+                self.last = -self.c_v * v * np.abs(v)
+                return self.last
+
+            def signals(self):
+                return {"force": self.last}
+
+    user = _scenario([{"type": "_test_numpy_quadratic", "params": {"c_v": 400.0}}])
+    builtin = _scenario([{"type": "quadratic_damping", "params": {"c_v": 400.0}}])
+    sim_u, ru = _run([user], True, monkeypatch)
+    sim_b, rb = _run([builtin], True, monkeypatch)
+    assert sim_u.loop == "python" and "_test_numpy_quadratic" in sim_u.loop_reason
+    assert sim_b.loop == "full"
+    ts_u, ts_b = ru[0].ts, rb[0].ts
+    assert ts_u["effect_force"].abs().max() > 10.0
+    np.testing.assert_array_equal(ts_u["effect._test_numpy_quadratic.force.0"].to_numpy(), ts_u["effect_force"].to_numpy())
+    for col in ("body_z", "travel", "effect_force"):
+        np.testing.assert_allclose(ts_u[col], ts_b[col], rtol=0, atol=1e-12 * ts_b[col].abs().max())

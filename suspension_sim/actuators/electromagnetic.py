@@ -39,16 +39,11 @@ import numpy as np
 from pydantic import Field
 
 from ..components import Params
+from ..kernels import optional
 from ..registry import ACTUATORS
-from ._common import kernel_pack
 from .base import Actuator
 
 P_COEFS = (0.197, -1.94, 26.34, -239.54)  # Eq. (6), N/A², ascending powers of x (m)
-
-
-def p_of_x(x, coefs=P_COEFS) -> np.ndarray:
-    return np.polyval(coefs[::-1], np.asarray(x, dtype=float))
-
 
 class ElectromagneticParams(Params):
     resistance: float = Field(0.2, gt=0, description="coil resistance R, Ω")
@@ -68,15 +63,15 @@ class ElectromagneticParams(Params):
 
 
 # ---------------------------------------------------------------------------------------------------------
-# compiled kernels (see suspension_sim.compiled): the same operations as force()/advance() for one corner.
+# the law for one corner.
 # p = [x0, x_min, x_max, push_pull?, i_max, substeps (ensemble max), u_max, K_i, 1/T_i, R, L]
 # st = [i_push, i_pull, I_push, I_pull, u_push, u_pull, i_ref_push, i_ref_pull, F]
-_PC_DESC = P_COEFS[::-1]  # np.polyval order
+_PC_DESC = P_COEFS[::-1]  # highest power first
 
 
 @numba.njit(cache=True)
 def _kclip(x, lo, hi):
-    """np.clip for scalars (NaN propagates)."""
+    """x clipped to [lo, hi] (NaN propagates)."""
     if x < lo:
         return lo
     if x > hi:
@@ -86,7 +81,7 @@ def _kclip(x, lo, hi):
 
 @numba.njit(cache=True)
 def _kmax(a, b):
-    """np.maximum for scalars (NaN propagates)."""
+    """max(a, b), NaN propagates."""
     if a != a:
         return a
     if b != b:
@@ -96,7 +91,7 @@ def _kmax(a, b):
 
 @numba.njit(cache=True)
 def _kmin(a, b):
-    """np.minimum for scalars (NaN propagates)."""
+    """min(a, b), NaN propagates."""
     if a != a:
         return a
     if b != b:
@@ -105,17 +100,30 @@ def _kmin(a, b):
 
 
 @numba.njit(cache=True)
-def _kgain(x):
-    """max(p_of_x(x), 1e-6), p_of_x by Horner's rule from 0 as np.polyval does."""
+def _kpoly(x):
+    """p(x) of Eq. (6) by Horner's rule from 0."""
     y = 0.0
     for c in _PC_DESC:
         y = y * x + c
-    return _kmax(y, 1e-6)
+    return y
+
+
+@numba.vectorize(["float64(float64)"], cache=True)
+def p_of_x(x):
+    """p(x) of Eq. (6), N/A², for x in m (an array or a number)."""
+    return _kpoly(x)
+
+
+@numba.njit(cache=True)
+def _kgain(x):
+    """max(p(x), 1e-6)."""
+    return _kmax(_kpoly(x), 1e-6)
 
 
 @numba.njit(cache=True)
 def _kernel_force(cmd, s, v, t, dt, p, st):
-    """``ElectromagneticActuator.force`` for one corner."""
+    """The force of one corner: F = p(x_push)·i_push² − p(x_pull)·i_pull², x_push = x0 − s, x_pull = x0 + s
+    clipped to the fitted stroke."""
     gp = _kgain(_kclip(p[0] - s, p[1], p[2]))
     gq = _kgain(_kclip(p[0] + s, p[1], p[2]))
     i0 = st[0]
@@ -127,7 +135,9 @@ def _kernel_force(cmd, s, v, t, dt, p, st):
 
 @numba.njit(cache=True)
 def _kernel_advance(cmd, s, v, t, dt, p, st):
-    """``ElectromagneticActuator.advance`` for one corner (references, then the PI current loops)."""
+    """The state of one corner over dt: the current references i_r = sqrt(F/p(x)) (push unit for F > 0,
+    pull unit for F < 0, at most i_max), then ``substeps`` sub-steps of each unit's PI current loop (Eq. 8,
+    voltage saturation with anti-windup) and coil (resistive term backward Euler, i >= 0)."""
     gp = _kgain(_kclip(p[0] - s, p[1], p[2]))
     gq = _kgain(_kclip(p[0] + s, p[1], p[2]))
     push = _kmax(cmd, 0.0) if p[3] != 0.0 else 0.0
@@ -158,76 +168,22 @@ class ElectromagneticActuator(Actuator):
     Params = ElectromagneticParams
     command_unit = "N"
 
-    def reset(self):
-        n, c = self.ctx.n_cars, self.ctx.n_corners
-        p = self.p
-        self.R, self.L = np.asarray(p.resistance, float), np.asarray(p.inductance, float)
-        w = 2 * np.pi * np.asarray(p.bandwidth, float)
-        self.inv_Ti = 1.0 / np.asarray(p.Ti, float) if p.Ti is not None else self.L * w ** 2
-        self.Ki = np.asarray(p.Ki, float) if p.Ki is not None else np.maximum(2 * w * self.L - self.R, 0.0)
-        shape = (2, n, c)  # unit 0 = push, 1 = pull
-        self.i = np.zeros(shape)
-        self.I = np.zeros(shape)  # integral term of Eq. (8), V
-        self.u = np.zeros(shape)
-        self.i_ref = np.zeros(shape)
-        self.F = np.zeros((n, c))
-
-    def positions(self, travel):
-        p = self.p
-        xp = np.clip(p.x0 - travel, p.x_min, p.x_max)
-        xq = np.clip(p.x0 + travel, p.x_min, p.x_max)
-        return xp, xq
-
-    def gains(self, travel):
-        xp, xq = self.positions(travel)
-        return np.maximum(p_of_x(xp), 1e-6), np.maximum(p_of_x(xq), 1e-6)
-
-    def force(self, command, travel, travel_rate, t):
-        gp, gq = self.gains(travel)
-        self.F = gp * self.i[0] ** 2 - gq * self.i[1] ** 2
-        return self.F
-
-    def references(self, command, travel):
-        gp, gq = self.gains(travel)
-        F = np.asarray(command, dtype=float)
-        push = np.maximum(F, 0.0) if self.p.push_pull else np.zeros_like(F)
-        pull = np.maximum(-F, 0.0)
-        ref = np.stack([np.sqrt(push / gp), np.sqrt(pull / gq)])
-        return np.minimum(ref, self.p.i_max)
-
-    def advance(self, command, travel, travel_rate, t, dt):
-        self.i_ref = self.references(command, travel)
-        ns = int(np.max(self.p.substeps))
-        h = dt / ns
-        umax = self.p.u_max
-        for _ in range(ns):
-            e = self.i_ref - self.i
-            u_raw = self.I - self.Ki * self.i
-            u = np.minimum(np.maximum(u_raw, -umax), umax)
-            # anti-windup: integrate unless saturated and the error drives further into saturation
-            hold = ((u_raw > umax) & (e > 0)) | ((u_raw < -umax) & (e < 0))
-            self.I = self.I + (~hold) * (self.inv_Ti * h) * e
-            # coil: backward Euler on the resistive term (unconditionally stable), current >= 0
-            self.i = np.maximum((self.i + (h / self.L) * u) / (1.0 + h * self.R / self.L), 0.0)
-            self.u = u
-
-    def states(self):
-        return {"force": self.F, "current_push": self.i[0], "current_pull": self.i[1],
-                "current_ref_push": self.i_ref[0], "current_ref_pull": self.i_ref[1],
-                "voltage_push": self.u[0], "voltage_pull": self.u[1]}
-
     kernel_force = staticmethod(_kernel_force)
     kernel_advance = staticmethod(_kernel_advance)
 
     def kernel_data(self):
         """(p, st) of the kernels; layout in the comment above ``_kernel_force``.  ``push_pull`` and
-        ``substeps`` are ensemble-wide, as in :meth:`references` and :meth:`advance`."""
-        p, ctx = self.p, self.ctx
-        kp = kernel_pack(ctx, p.x0, p.x_min, p.x_max, float(bool(p.push_pull)), p.i_max,
-                         float(int(np.max(p.substeps))), p.u_max, self.Ki, self.inv_Ti, self.R, self.L)
-        st = kernel_pack(ctx, self.i[0], self.i[1], self.I[0], self.I[1], self.u[0], self.u[1],
-                         self.i_ref[0], self.i_ref[1], self.F)
-        return kp, st
+        ``substeps`` are ensemble-wide.  Default gains place both current-loop poles at 2π·bandwidth:
+        1/T_i = L·ω², K_i = 2ωL − R."""
+        p = self.p
+        R, L = np.asarray(p.resistance, float), np.asarray(p.inductance, float)
+        w = 2 * np.pi * np.asarray(p.bandwidth, float)
+        Ti, Ki = optional(p.Ti), optional(p.Ki)  # NaN: not given (per car)
+        inv_Ti = np.where(np.isnan(Ti), L * w ** 2, 1.0 / Ti)
+        Ki = np.where(np.isnan(Ki), np.maximum(2 * w * L - R, 0.0), Ki)
+        kp = self.pack(p.x0, p.x_min, p.x_max, float(bool(p.push_pull)), p.i_max, float(int(np.max(p.substeps))),
+                       p.u_max, Ki, inv_Ti, R, L)
+        return kp, self.pack(*([0.0] * 9))
 
     def kernel_states(self):
         return {"force": 8, "current_push": 0, "current_pull": 1, "current_ref_push": 6, "current_ref_pull": 7,

@@ -27,7 +27,7 @@ part is then integrated exactly, whatever MuJoCo does between steps, and the cou
 position-dependent force of a semi-implicit step.  Over each step :meth:`advance` integrates the remaining
 (mildly nonlinear) pressure dynamics on sub-steps of at most ``max_substep`` with the trapezoidal rule,
 solved in closed form: with x_v frozen at the sub-step end, the implicit equation is a quadratic in
-``S = w3`` (see :func:`_trapezoid_step`), so no iteration is needed and the square-root singularity at
+``S = w3`` (see :func:`_kernel_advance`), so no iteration is needed and the square-root singularity at
 |P_L| = P_s (where an explicit method would need tiny steps) is handled without special cases.  The spool
 lag is integrated exactly (exponential toward the held command, clipped at the end stops).
 """
@@ -41,9 +41,9 @@ from pydantic import Field
 
 from ..components import Params
 from ..registry import ACTUATORS
-from ._common import kernel_pack
 from .base import Actuator
 from ..compiled.numpy_order import sign
+from ..kernels import optional
 
 
 class HydraulicParams(Params):
@@ -60,44 +60,19 @@ class HydraulicParams(Params):
     max_substep: float = Field(2.5e-4, gt=0, description="longest internal sub-step of the pressure integration (s)")
 
 
-def _trapezoid_step(P0, f0, xv1, h, alpha_rate, p):
-    """One trapezoidal step of dP/dt = −β·P − α·A·v + γ·x_v·w3(P, x_v) from P0 (derivative f0 at the start)
-    to the end point, where x_v = xv1.  With a = 1 + hβ/2, σ = sgn(xv1) and S = w3(P1):
-
-        a·P1 − (h/2)·γ·xv1·S = K := P0 + (h/2)·f0 − (h/2)·α·A·v,   P1 = σ·(P_s − S·|S|)
-        =>  a·S·|S| + b·S − c = 0,  b = (h/2)·γ·|xv1|,  c = a·P_s − σ·K
-
-    which is strictly increasing in S, so S = 2c / (b + sqrt(b² + 4a|c|)) (the stable root formula)."""
-    a = 1.0 + 0.5 * h * p.beta
-    K = P0 + 0.5 * h * f0 - 0.5 * h * alpha_rate
-    sig = np.sign(xv1)
-    b = 0.5 * h * p.gamma * np.abs(xv1)
-    c = a * p.supply_pressure - sig * K
-    S = 2.0 * c / (b + np.sqrt(b * b + 4.0 * a * np.abs(c)))
-    P1 = np.where(sig != 0, sig * (p.supply_pressure - S * np.abs(S)), K / a)
-    return P1
-
-
-def w3(P, xv, Ps):
-    """Valve flow factor sgn(P_s − sgn(x_v)·P_L)·sqrt|P_s − sgn(x_v)·P_L| (Lin & Kanellakopoulos Eq. 7)."""
-    D = Ps - np.sign(xv) * P
-    return np.sign(D) * np.sqrt(np.abs(D))
-
-
 # ---------------------------------------------------------------------------------------------------------
-# compiled kernels (see suspension_sim.compiled): the same operations as force()/advance() for one corner.
+# the law for one corner.
 # p = [alpha, area, beta, gamma, P_s, tau, xlim, friction?, friction_max, friction_velocity, ctx.dt, n_sub,
-#      min max_substep, e_1 .. e_nsub]  with e_k = exp(-(k·h)/tau) at h = ctx.dt/n_sub, evaluated by numpy in
-#      kernel_data exactly as _spool does (so the kernel is bit-identical at the physics step; another dt falls
-#      back to math.exp, within an ulp of numpy's exp);
+#      max_substep, e_1 .. e_nsub]  with e_k = exp(-(k·h)/tau) at h = ctx.dt/n_sub, precomputed in
+#      kernel_data (another dt than the physics step uses math.exp);
 # st = [P_L, x_v, G, G set?, F, A·P_L, F_f]
 _HP = 13  # index of e_1 in p
 
 
-
 @numba.njit(cache=True)
 def _kernel_force(cmd, s, v, t, dt, p, st):
-    """``HydraulicActuator.force`` for one corner."""
+    """The force of one corner: P_L = G − α·A·travel (the stiff oil spring exact, see the module docstring),
+    F = A·P_L − F_f,max·tanh(travel rate/v_f)."""
     if st[3] == 0.0:
         st[2] = st[0] + p[0] * p[1] * s
         st[3] = 1.0
@@ -114,7 +89,15 @@ def _kernel_force(cmd, s, v, t, dt, p, st):
 
 @numba.njit(cache=True)
 def _kernel_advance(cmd, s, v, t, dt, p, st):
-    """``HydraulicActuator.advance`` for one corner (spool lag, trapezoidal pressure sub-steps)."""
+    """The state of one corner over dt: on each of n_sub sub-steps the spool lag exactly (exponential toward
+    the held command, clipped at the end stops), then one trapezoidal step of the pressure
+    dP/dt = −β·P − α·A·v + γ·x_v·w3(P, x_v), x_v frozen at the sub-step end.  With a = 1 + hβ/2,
+    σ = sgn(x_v1) and S = w3(P1) the implicit equation
+
+        a·P1 − (h/2)·γ·x_v1·S = K := P0 + (h/2)·f0 − (h/2)·α·A·v,   P1 = σ·(P_s − S·|S|)
+        =>  a·S·|S| + b·S − c = 0,  b = (h/2)·γ·|x_v1|,  c = a·P_s − σ·K
+
+    is strictly increasing in S, so S = 2c / (b + sqrt(b² + 4a|c|)) (the stable root formula)."""
     alpha, area, beta, gamma, Ps, tau, xlim = p[0], p[1], p[2], p[3], p[4], p[5], p[6]
     u = cmd
     if st[3] == 0.0:
@@ -131,7 +114,7 @@ def _kernel_advance(cmd, s, v, t, dt, p, st):
     xv = st[1]
     xv0 = xv
     for i in range(n_sub):
-        # _spool(u, (i + 1)·h)
+        # spool lag over (i + 1)·h from the step start
         if exact:
             e = p[_HP + i]
         else:
@@ -141,10 +124,10 @@ def _kernel_advance(cmd, s, v, t, dt, p, st):
             xv1 = -xlim
         elif xv1 > xlim:
             xv1 = xlim
-        # _deriv(P, xv0, ar), w3(P, xv0, P_s)
+        # the derivative at the sub-step start, w3 = sgn(D)·sqrt|D| (Lin & Kanellakopoulos Eq. 7)
         D = Ps - sign(xv0) * P
         f0 = -beta * P - ar + gamma * xv0 * (sign(D) * math.sqrt(abs(D)))
-        # _trapezoid_step(P, f0, xv1, h, ar)
+        # the trapezoidal step
         a = 1.0 + 0.5 * h * beta
         K = P + 0.5 * h * f0 - 0.5 * h * ar
         sig = sign(xv1)
@@ -171,83 +154,21 @@ class HydraulicActuator(Actuator):
     Params = HydraulicParams
     command_unit = "m"
 
-    def reset(self):
-        n, c = self.ctx.n_cars, self.ctx.n_corners
-        p = self.p
-        self.P = np.broadcast_to(np.asarray(p.initial_pressure, dtype=float), (n, c)).copy()
-        self.xv = np.zeros((n, c))
-        self.G = None  # P_L + α·A·travel, set at the first force() call (travel unknown before)
-        self.F = np.zeros((n, c))
-        self.Fh = np.zeros((n, c))
-        self.Ff = np.zeros((n, c))
-        lim = p.spool_limit  # stacked: array (n, 1); None (all cars) or a list mixing None and numbers
-        if lim is None or isinstance(lim, list):
-            lim = [np.inf if v is None else float(v) for v in (lim if isinstance(lim, list) else [None] * n)]
-        lim = np.asarray(lim, dtype=float)
-        lim = np.where(np.isnan(lim), np.inf, lim)  # stacking turns a None among numbers into NaN
-        self.xlim = np.broadcast_to(lim.reshape(n, -1), (n, c)).copy()
-        self.n_sub = max(1, int(math.ceil(self.ctx.dt / float(np.min(p.max_substep)) - 1e-9)))
-
-    # ---------------------------------------------------------------------------------------------
-    def _spool(self, u, s):
-        p = self.p
-        x = u + (self.xv - u) * np.exp(-s / p.spool_time_constant)
-        return np.clip(x, -self.xlim, self.xlim)
-
-    def _deriv(self, P, xv, alpha_rate):
-        p = self.p
-        return -p.beta * P - alpha_rate + p.gamma * xv * w3(P, xv, p.supply_pressure)
-
-    def force(self, command, travel, travel_rate, t):
-        p = self.p
-        if self.G is None:
-            self.G = self.P + p.alpha * p.area * travel
-        self.P = self.G - p.alpha * p.area * travel
-        self.Fh = p.area * self.P
-        if np.any(p.friction_max > 0):
-            self.Ff = p.friction_max * np.tanh(travel_rate / p.friction_velocity)
-        self.F = self.Fh - self.Ff
-        return self.F
-
-    def advance(self, command, travel, travel_rate, t, dt):
-        p = self.p
-        u = np.asarray(command, dtype=float)
-        if self.G is None:
-            self.G = self.P + p.alpha * p.area * travel
-        n_sub = self.n_sub if dt == self.ctx.dt else max(1, int(math.ceil(dt / float(np.min(p.max_substep)) - 1e-9)))
-        h = dt / n_sub
-        ar = p.alpha * p.area * travel_rate  # α·A·(ẋ_s − ẋ_w), held over the step
-        P = self.G - p.alpha * p.area * travel
-        xv0 = self.xv
-        for i in range(n_sub):
-            xv1 = self._spool(u, (i + 1) * h)
-            f0 = self._deriv(P, xv0, ar)
-            P = _trapezoid_step(P, f0, xv1, h, ar, p)
-            xv0 = xv1
-        self.xv = xv0
-        travel_end = travel + travel_rate * dt
-        self.G = P + p.alpha * p.area * travel_end
-        self.P = P
-
-    def states(self):
-        return {"load_pressure": self.P, "spool_position": self.xv, "hydraulic_force": self.p.area * self.P,
-                "friction_force": self.Ff, "force": self.F}
-
     kernel_force = staticmethod(_kernel_force)
     kernel_advance = staticmethod(_kernel_advance)
 
     def kernel_data(self):
         """(p, st) of the kernels; layout in the comment above ``_kernel_force``."""
         p, ctx = self.p, self.ctx
-        h = ctx.dt / self.n_sub
-        e = [np.exp(-((i + 1) * h) / p.spool_time_constant) for i in range(self.n_sub)]  # as in _spool
-        kp = kernel_pack(ctx, p.alpha, p.area, p.beta, p.gamma, p.supply_pressure, p.spool_time_constant,
-                         self.xlim, float(np.any(p.friction_max > 0)), p.friction_max, p.friction_velocity,
-                         ctx.dt, float(self.n_sub), float(np.min(p.max_substep)), *e)
-        G = np.zeros_like(self.P) if self.G is None else self.G
-        st = kernel_pack(ctx, self.P, self.xv, G, float(self.G is not None), self.F, self.p.area * self.P,
-                         self.Ff)
-        return kp, st
+        lim = optional(p.spool_limit)
+        xlim = np.where(np.isnan(lim), np.inf, lim)  # none: no end stop
+        n_sub = np.maximum(1, np.ceil(ctx.dt / np.asarray(p.max_substep, dtype=float) - 1e-9))  # per car
+        h = ctx.dt / n_sub
+        e = [np.exp(-((i + 1) * h) / p.spool_time_constant) for i in range(int(np.max(n_sub)))]
+        kp = self.pack(p.alpha, p.area, p.beta, p.gamma, p.supply_pressure, p.spool_time_constant, xlim,
+                       p.friction_max > 0, p.friction_max, p.friction_velocity, ctx.dt, n_sub, p.max_substep, *e)
+        P0 = np.asarray(p.initial_pressure, dtype=float)
+        return kp, self.pack(P0, 0.0, 0.0, 0.0, 0.0, p.area * P0, 0.0)
 
     def kernel_states(self):
         return {"load_pressure": 0, "spool_position": 1, "hydraulic_force": 5, "friction_force": 6,

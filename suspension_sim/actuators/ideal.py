@@ -7,9 +7,9 @@ import numpy as np
 from pydantic import Field
 
 from ..components import Params
+from ..kernels import optional
 from ..free_parameters import FreeParameter
 from ..registry import ACTUATORS
-from ._common import kernel_pack, optional_array
 from .base import Actuator
 
 
@@ -23,7 +23,8 @@ class IdealParams(Params):
 # kernel layout (one corner): p = [lag?, a, rate?, dmax, sat?, max_force, n_delay]; st = [F, head, line[0..n_delay]]
 @numba.njit(cache=True)
 def _kernel_force(cmd, s, v, t, dt, p, st):
-    """``IdealActuator.force`` for one corner (same operations, same order)."""
+    """The force of one corner: the command through the delay line, the lag F ← a·F + (1 − a)·u, the rate
+    limit |ΔF| <= dmax per step and the saturation |F| <= max_force."""
     u = cmd
     nd = int(p[6])
     if nd:
@@ -39,7 +40,7 @@ def _kernel_force(cmd, s, v, t, dt, p, st):
     if p[2] != 0.0:
         dmax = p[3]
         d = u - F
-        if d < -dmax:  # np.clip (NaN propagates)
+        if d < -dmax:  # NaN propagates
             d = -dmax
         elif d > dmax:
             d = dmax
@@ -56,7 +57,7 @@ def _kernel_force(cmd, s, v, t, dt, p, st):
 
 @numba.njit(cache=True)
 def _kernel_advance(cmd, s, v, t, dt, p, st):
-    """``IdealActuator.advance`` (nothing to do: the state changes in ``force``)."""
+    """Nothing to do: the state changes in ``_kernel_force``."""
     return
 
 
@@ -83,54 +84,16 @@ class IdealActuator(Actuator):
                           "frequency (−360°·f·d)",
     }
 
-    def reset(self):
-        n, c = self.ctx.n_cars, self.ctx.n_corners
-        self.F = np.zeros((n, c))
-        self.n_delay = int(round(float(np.max(self.p.delay)) / self.ctx.dt))
-        self._line = np.zeros((self.n_delay + 1, n, c))
-        self._head = 0
-        tau = np.asarray(self.p.time_constant, dtype=float)
-        self.lag = bool(np.any(tau > 0))
-        self._a = np.where(tau > 0, np.exp(-self.ctx.dt / np.maximum(tau, 1e-300)), 0.0)
-        self.rate = self.p.rate_limit is not None
-        self.sat = self.p.max_force is not None
-
-    def force(self, command, travel, travel_rate, t):
-        u = command
-        if self.n_delay:
-            self._line[self._head] = command
-            self._head = (self._head + 1) % (self.n_delay + 1)
-            u = self._line[self._head]
-        if self.lag:
-            u = self._a * self.F + (1 - self._a) * u
-        if self.rate:
-            dmax = self.p.rate_limit * self.ctx.dt
-            u = self.F + np.clip(u - self.F, -dmax, dmax)
-        if self.sat:
-            u = np.clip(u, -self.p.max_force, self.p.max_force)
-        self.F = np.broadcast_to(np.asarray(u, dtype=float), self.F.shape).copy()
-        return self.F
-
-    def advance(self, command, travel, travel_rate, t, dt):
-        pass
-
-    def states(self):
-        return {"force": self.F}
-
     kernel_force = staticmethod(_kernel_force)
     kernel_advance = staticmethod(_kernel_advance)
 
     def kernel_data(self):
-        """p = [lag?, a, rate?, dmax, sat?, max_force, n_delay] (the flags and the delay-line length are
-        ensemble-wide, as in :meth:`force`); st = [F, head, delay line (n_delay + 1)]."""
+        """p = [lag?, a, rate?, dmax, sat?, max_force, n_delay] per car; st = [F, head, delay line (n_delay + 1
+        slots; the longest of the ensemble)]."""
         ctx, p = self.ctx, self.p
-        dmax = optional_array(p.rate_limit, 0.0) * ctx.dt if self.rate else 0.0
-        fmax = optional_array(p.max_force, 0.0) if self.sat else 0.0
-        kp = kernel_pack(ctx, float(self.lag), self._a, float(self.rate), dmax, float(self.sat), fmax,
-                         float(self.n_delay))
-        line = [self._line[j] for j in range(self.n_delay + 1)]
-        st = kernel_pack(ctx, self.F, float(self._head), *line)
-        return kp, st
-
-    def kernel_states(self):
-        return {"force": 0}
+        delay = np.rint(np.asarray(p.delay, dtype=float) / ctx.dt)
+        tau = np.asarray(p.time_constant, dtype=float)
+        a = np.where(tau > 0, np.exp(-ctx.dt / np.maximum(tau, 1e-300)), 0.0)  # exact ZOH lag over one step
+        rate, fmax = optional(p.rate_limit), optional(p.max_force)  # NaN: none (the flag is off)
+        kp = self.pack(tau > 0, a, ~np.isnan(rate), rate * ctx.dt, ~np.isnan(fmax), fmax, delay)
+        return kp, self.pack(*([0.0] * (int(np.max(delay)) + 3)))  # F, head, the delay line

@@ -1,8 +1,6 @@
-"""Checks that a component's compiled kernel reproduces its Python method (used by the tests).
-
-Each function drives the Python object and its kernel with the same inputs, step by step, and returns the
-largest absolute difference of outputs and signals/states, so a test can assert it is 0 (or within a few
-ulp where a kernel calls a transcendental function that numpy evaluates differently)."""
+"""Checks that a controller's kernel, replayed one car at a time, reproduces the commands and signals of its
+ensemble ``step`` (used by the tests).  Effects and actuators need no such check: their Python methods are
+their kernels broadcast over the ensemble (:mod:`suspension_sim.kernels`)."""
 from __future__ import annotations
 
 import copy
@@ -16,57 +14,6 @@ def _maxdiff(a, b) -> float:
         raise AssertionError(f"shape {a.shape} != {b.shape}")
     both_nan = np.isnan(a) & np.isnan(b)
     return float(np.max(np.where(both_nan, 0.0, np.abs(a - b)), initial=0.0))
-
-
-def check_effect(effect, s_seq, v_seq, t0: float = 0.0, dt: float = 0.0005) -> float:
-    """Run ``effect.force`` (on a deep copy) and ``effect.kernel`` over the inputs s_seq[k], v_seq[k]
-    (each (n_cars, n_sel)); return the largest difference of forces and kernel_signals."""
-    py = copy.deepcopy(effect)
-    py.reset()
-    kn = copy.deepcopy(effect)
-    kn.reset()
-    p, st = kn.kernel_data()
-    sig = kn.kernel_signals()
-    worst = 0.0
-    for k, (s, v) in enumerate(zip(s_seq, v_seq)):
-        t = t0 + k * dt
-        f_py = np.broadcast_to(py.force(np.array(s, dtype=float), np.array(v, dtype=float), t, dt), s.shape)
-        f_kn = np.empty(s.shape)
-        for i in range(s.shape[0]):
-            for c in range(s.shape[1]):
-                f_kn[i, c] = kn.kernel(float(s[i, c]), float(v[i, c]), t, dt, p[i, c], st[i, c])
-        worst = max(worst, _maxdiff(f_py, f_kn))
-        sp = py.signals()
-        for name, j in sig.items():
-            worst = max(worst, _maxdiff(np.broadcast_to(sp[name], s.shape), st[:, :, j]))
-    return worst
-
-
-def check_actuator(actuator, cmd_seq, s_seq, v_seq, dt: float = 0.0005) -> float:
-    """Run force/advance of the Python actuator and its kernels on the same inputs (each (n_cars, n_corners));
-    return the largest difference of forces and kernel_states."""
-    py = copy.deepcopy(actuator)
-    py.reset()
-    kn = copy.deepcopy(actuator)
-    kn.reset()
-    p, st = kn.kernel_data()
-    idx = kn.kernel_states()
-    worst = 0.0
-    for k, (u, s, v) in enumerate(zip(cmd_seq, s_seq, v_seq)):
-        t = k * dt
-        u, s, v = (np.array(a, dtype=float) for a in (u, s, v))
-        f_py = np.array(py.force(u, s, v, t), dtype=float)
-        py.advance(u, s, v, t, dt)
-        f_kn = np.empty(u.shape)
-        for i in range(u.shape[0]):
-            for c in range(u.shape[1]):
-                f_kn[i, c] = kn.kernel_force(u[i, c], s[i, c], v[i, c], t, dt, p[i, c], st[i, c])
-                kn.kernel_advance(u[i, c], s[i, c], v[i, c], t, dt, p[i, c], st[i, c])
-        worst = max(worst, _maxdiff(f_py, f_kn))
-        sp = py.states()
-        for name, j in idx.items():
-            worst = max(worst, _maxdiff(np.broadcast_to(sp[name], u.shape), st[:, :, j]))
-    return worst
 
 
 def check_controller(sim) -> float:

@@ -54,14 +54,3 @@ def reduced_mass(ctx) -> np.ndarray:
     mt = np.asarray(ctx.static_tire_force, dtype=float) / GRAVITY
     mu = np.where(mt > ms, mt - ms, np.inf)  # no tire (SDOF rig): the base is rigid
     return 1.0 / (1.0 / np.maximum(ms, 1e-9) + 1.0 / mu)
-
-
-def kernel_pack(effect, *arrays) -> np.ndarray:
-    """Stack per-corner arrays (each broadcastable to ``(n_cars, n_sel)``) along a last axis into the float64,
-    C-contiguous ``(n_cars, n_sel, len(arrays))`` array of a compiled kernel's ``p`` or ``st`` (see
-    :mod:`suspension_sim.compiled`); no arrays give a ``(n_cars, n_sel, 0)`` array."""
-    shape = (effect.ctx.n_cars, len(effect.ctx.corners))
-    out = np.empty(shape + (len(arrays),), dtype=np.float64)
-    for j, a in enumerate(arrays):
-        out[:, :, j] = np.broadcast_to(np.asarray(a, dtype=np.float64), shape)
-    return out

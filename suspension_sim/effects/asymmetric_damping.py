@@ -10,7 +10,7 @@ from pydantic import Field, field_validator, model_validator
 from ..components import Params
 from ..errors import ScenarioError
 from ..registry import EFFECTS
-from ._common import PerCornerNonNeg, corner_array, kernel_pack
+from ._common import PerCornerNonNeg, corner_array
 from ..free_parameters import FreeParameter
 from .base import Effect
 
@@ -46,21 +46,12 @@ def _nonzero(v) -> bool:
     return any(x != 0 for x in (v if isinstance(v, list) else [v]))
 
 
-def interp_linear_extrap(x: np.ndarray, xp: np.ndarray, fp: np.ndarray) -> np.ndarray:
-    """Piecewise-linear interpolation through (xp, fp), continued linearly with the end segments' slopes."""
-    y = np.interp(x, xp, fp)
-    lo_slope = (fp[1] - fp[0]) / (xp[1] - xp[0])
-    hi_slope = (fp[-1] - fp[-2]) / (xp[-1] - xp[-2])
-    y = np.where(x < xp[0], fp[0] + lo_slope * (x - xp[0]), y)
-    return np.where(x > xp[-1], fp[-1] + hi_slope * (x - xp[-1]), y)
-
-
 @numba.njit(cache=True)
 def _kernel(s, v, t, dt, p, st):
-    """``force`` for one corner.  p = [n, c_comp, c_reb, xp_0 … xp_{m−1}, fp_0 … fp_{m−1}]: n = number of map
-    points of this car (0 = no map: coefficients), m >= n the padded map length.  The map branch repeats
-    ``np.interp`` (bisection to xp[j] <= v < xp[j+1], exact hits return fp[j]) and the linear extrapolation
-    of :func:`interp_linear_extrap` operation by operation."""
+    """The force of one corner.  p = [n, c_comp, c_reb, xp_0 … xp_{m−1}, fp_0 … fp_{m−1}]: n = number of map
+    points of this car (0 = no map: coefficients), m >= n the padded map length.  The map is interpolated
+    linearly as ``np.interp`` does it (bisection to xp[j] <= v < xp[j+1], exact hits return fp[j]) and
+    continued with the end segments' slopes beyond its ends."""
     n = int(p[0])
     if n == 0:
         c = p[2] if v > 0 else p[1]
@@ -125,40 +116,26 @@ class AsymmetricDamping(Effect):
     signature = ("residual force vs travel rate has a kink at v=0 (different compression/rebound slopes) or a "
                  "map shape; mean travel drifts (jacking/packing down) under symmetric excitation")
 
-    def reset(self):
-        self.c_comp = corner_array(self, "c_comp")
-        self.c_reb = corner_array(self, "c_reb")
-        tab = self.p.table
-        self.tables = None
-        if tab is not None:
-            arr = [np.asarray(t, dtype=float) for t in (tab if _per_car(tab) else [tab] * self.ctx.n_cars)]
-            if len(arr) != self.ctx.n_cars:
-                raise ScenarioError("one damper map per car expected", field=f"effects.{self.name}.params.table")
-            self.tables = arr
-
-    def force(self, s, v, t, dt):
-        if self.tables is None:
-            return -np.where(v > 0, self.c_reb, self.c_comp) * v
-        out = np.empty_like(v, dtype=float)
-        for i, tab in enumerate(self.tables):
-            out[i] = -interp_linear_extrap(v[i], tab[:, 0], tab[:, 1])
-        return out
-
-
-
     kernel = staticmethod(_kernel)
 
     def kernel_data(self):
-        n, k = self.ctx.n_cars, len(self.ctx.corners)
-        m = 0 if self.tables is None else max(len(tab) for tab in self.tables)
-        p = np.zeros((n, k, 3 + 2 * m))
-        p[:, :, 1] = self.c_comp
-        p[:, :, 2] = self.c_reb
-        for i, tab in enumerate(self.tables or []):
-            p[i, :, 0] = len(tab)
-            p[i, :, 3:3 + len(tab)] = tab[:, 0]
-            p[i, :, 3 + m:3 + m + len(tab)] = tab[:, 1]
-        return p, kernel_pack(self)
+        tab = self.p.table  # one map, or one per car (None: that car has coefficients)
+        per_car = tab is not None and (any(t is None for t in tab) or _per_car(tab))
+        tables = [None if t is None else np.asarray(t, dtype=float)
+                  for t in (tab if per_car else [tab] * self.ctx.n_cars)]
+        if len(tables) != self.ctx.n_cars:
+            raise ScenarioError("one damper map per car expected", field=f"effects.{self.name}.params.table")
+        m = max((len(t) for t in tables if t is not None), default=0)
+        p = self.pack(*([0.0] * (3 + 2 * m)))
+        p[:, :, 1] = corner_array(self, "c_comp")
+        p[:, :, 2] = corner_array(self, "c_reb")
+        for i, t in enumerate(tables):
+            if t is None:
+                continue
+            p[i, :, 0] = len(t)
+            p[i, :, 3:3 + len(t)] = t[:, 0]
+            p[i, :, 3 + m:3 + m + len(t)] = t[:, 1]
+        return p, self.pack()
 
 
 def _per_car(tab) -> bool:

@@ -2,12 +2,11 @@
 from __future__ import annotations
 
 import numba
-import numpy as np
 from pydantic import Field
 
 from ..components import Params
 from ..registry import EFFECTS
-from ._common import PerCornerNonNeg, corner_array, kernel_pack
+from ._common import PerCornerNonNeg, corner_array
 from ..free_parameters import FreeParameter
 from .base import Effect
 
@@ -19,7 +18,7 @@ class BacklashParams(Params):
 
 @numba.njit(cache=True)
 def _kernel(s, v, t, dt, p, st):
-    """``force`` for one corner; p = [k_b, b], st = [y]."""
+    """The force of one corner; p = [k_b, b], st = [y] (the driven side of the play)."""
     hi = s + p[1]
     y = hi if hi < st[0] else st[0]  # np.minimum(s + b, y)
     lo = s - p[1]
@@ -50,23 +49,11 @@ class Backlash(Effect):
     signature = ("residual force vs travel is a parallelogram: flat for 2·b after each reversal, then slope k_b; "
                  "dead band (free motion) at reversals")
 
-    def reset(self):
-        self.k = corner_array(self, "stiffness")
-        self.b = corner_array(self, "play")
-        self.y = np.zeros_like(self.k)
-
-    def force(self, s, v, t, dt):
-        self.y = np.maximum(s - self.b, np.minimum(s + self.b, self.y))
-        return -self.k * self.y
-
-    def signals(self):
-        """``y``: position of the driven side of the play (m)."""
-        return {"y": self.y}
-
     kernel = staticmethod(_kernel)
 
     def kernel_data(self):
-        return kernel_pack(self, self.k, self.b), kernel_pack(self, self.y)
+        return self.pack(corner_array(self, "stiffness"), corner_array(self, "play")), self.pack(0.0)
 
     def kernel_signals(self):
+        """``y``: position of the driven side of the play (m)."""
         return {"y": 0}

@@ -5,10 +5,11 @@ positive = pushes body up and wheel down, as a function of travel ``s`` = body â
 its rate ``v``) or along the tire tendon (``target = "tire"``: force positive = pushes the wheel up; ``s`` =
 wheel âˆ’ road from equilibrium, so ``-s`` is the extra tire compression).
 
-Effects are vectorised over the ensemble: ``s`` and ``v`` have shape ``(n_cars, n_sel)`` for the corners the
-effect applies to, and ``self.p`` holds the stacked parameters (``(n_cars, 1)`` or ``(n_cars, n_sel)``).
-:meth:`force` is called once per physics step with the state at the start of that step; stateful effects
-(hysteresis, backlash) update their state in :meth:`force` using ``dt``.
+A built-in effect writes its law once, as a numba :attr:`Effect.kernel` for one corner of one car.  The
+base class broadcasts it over the ensemble for the Python loop (:meth:`Effect.force`, :meth:`Effect.signals`)
+and the compiled loop inlines it.  ``force(s, v, t, dt)`` takes ``s`` and ``v`` of shape ``(n_cars, n_sel)``
+(the corners the effect applies to) and is called once per physics step with the state at the start of that
+step; stateful effects (hysteresis, backlash) keep their state in the kernel's ``st`` rows.
 
 Every effect documents its force law and the *signature* it leaves in measured data (used by the
 discrepancy workflow).
@@ -20,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..components import NoParams
+from ..kernels import broadcast_effect, call, f64, pack
 
 
 @dataclass
@@ -39,7 +41,10 @@ class EffectContext:
 
 
 class Effect:
-    """Base class. Subclasses set ``Params`` (pydantic), ``target`` and implement :meth:`force`."""
+    """Base class.  A built-in effect sets ``Params`` (pydantic), ``target`` and ``signature``, sets
+    :attr:`kernel` (its law, written once), implements :meth:`kernel_data` (parameters and initial state as
+    the kernel's arrays) and declares :meth:`kernel_signals`.  A user's effect may instead override
+    :meth:`force` (and :meth:`signals`) in plain numpy; it then runs in the Python loop."""
 
     name = "effect"
     target = "suspension"  # or "tire"
@@ -50,26 +55,52 @@ class Effect:
         self.p = p
         self.ctx = ctx
         self.reset()
+        if type(self).kernel is not None:
+            self._data()  # checks the parameters (per-corner lists) when the effect is built
 
     def reset(self) -> None:
-        """Reset internal state (stateful effects)."""
+        """Reset internal state (the kernel state restarts from :meth:`kernel_data`); a subclass that
+        overrides it calls ``super().reset()``."""
+        self._kd = None
 
-    def force(self, s: np.ndarray, v: np.ndarray, t: float, dt: float) -> np.ndarray:
-        raise NotImplementedError
-
-    def signals(self) -> dict[str, np.ndarray]:
-        """Internal signals to log, each of shape (n_cars, k)."""
-        return {}
-
-    # optional compiled kernel (see suspension_sim.compiled): a module-level numba @njit function
-    # (s, v, t, dt, p, st) -> float, the force of one corner of one car, same law and operation order as force()
+    # the law: a module-level numba @njit function (s, v, t, dt, p, st) -> float, the force of one corner of
+    # one car; p and st are that corner's rows of kernel_data() (st updated in place)
     kernel = None
 
     def kernel_data(self) -> tuple[np.ndarray, np.ndarray]:
         """(p, st): float64 C-contiguous arrays (n_cars, n_sel, kp) and (n_cars, n_sel, ks) for :attr:`kernel`,
-        taken from the current (reset) parameters and state; the kernel updates st[i, c] in place."""
+        taken from the current (reset) parameters and state (see :meth:`pack`)."""
         raise NotImplementedError
 
     def kernel_signals(self) -> dict[str, int]:
-        """{signal name: j} with signals()[name][:, c] == st[:, c, j]."""
+        """{signal name: j}: signal ``name`` of corner c is ``st[:, c, j]``."""
         return {}
+
+    def pack(self, *arrays) -> np.ndarray:
+        """Per-corner arrays (each broadcastable to (n_cars, n_sel)) stacked into a kernel_data array."""
+        return pack((self.ctx.n_cars, len(self.ctx.corners)), *arrays)
+
+    def _data(self):
+        if getattr(self, "_kd", None) is None:
+            if type(self).kernel is None:
+                raise NotImplementedError(f"effect {self.name!r} has neither a kernel nor a force()")
+            self._kd = tuple(f64(np.array(x, dtype=np.float64)) for x in self.kernel_data())
+        return self._kd
+
+    def force(self, s: np.ndarray, v: np.ndarray, t: float, dt: float) -> np.ndarray:
+        """The force of every selected corner of every car, (n_cars, n_sel): the kernel broadcast over the
+        ensemble (its state advances)."""
+        p, st = self._data()
+        shape = p.shape[:2]
+        s, v = (f64(a if np.shape(a) == shape else np.broadcast_to(a, shape)) for a in (s, v))
+        out = np.empty(shape)
+        call(broadcast_effect, type(self).kernel, s, v, float(t), float(dt), p, st, out)
+        return out
+
+    def signals(self) -> dict[str, np.ndarray]:
+        """Internal signals to log, each (n_cars, n_sel), from the kernel state (:meth:`kernel_signals`)."""
+        sig = self.kernel_signals()
+        if not sig:
+            return {}
+        _, st = self._data()
+        return {nm: st[:, :, j].copy() for nm, j in sig.items()}

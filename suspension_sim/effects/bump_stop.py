@@ -4,12 +4,11 @@ from __future__ import annotations
 from typing import Optional
 
 import numba
-import numpy as np
 from pydantic import Field
 
 from ..components import Params
 from ..registry import EFFECTS
-from ._common import PerCornerNonNeg, PerCornerPos, corner_array, kernel_pack
+from ._common import PerCornerNonNeg, PerCornerPos, corner_array
 from ..free_parameters import FreeParameter
 from .base import Effect
 
@@ -27,14 +26,14 @@ class BumpStopParams(Params):
 
 @numba.njit(cache=True)
 def _kernel(s, v, t, dt, p, st):
-    """``force`` for one corner; p = [g_c, g_e, k, c], st = [engaged]."""
+    """The force of one corner; p = [g_c, g_e, k, c], st = [engaged]."""
     pen_c = -p[0] - s
     pen_e = s - p[1]
     f_c = 0.0
     f_e = 0.0
     if pen_c > 0:
         x = p[2] * pen_c - p[3] * v
-        f_c = x if x > 0.0 else 0.0  # np.maximum(0.0, x) (NaN propagates)
+        f_c = x if x > 0.0 else 0.0  # max(0, x), NaN propagates
         if x != x:
             f_c = x
     if pen_e > 0:
@@ -75,31 +74,15 @@ class BumpStop(Effect):
     signature = ("residual force vs travel is zero inside a band and steep outside; travel clipped near ±gap; "
                  "body-acceleration spikes at end of stroke")
 
-    def reset(self):
-        gap = corner_array(self, "gap")
-        self.g_c = gap if self.p.gap_compression is None else corner_array(self, "gap_compression")
-        self.g_e = gap if self.p.gap_extension is None else corner_array(self, "gap_extension")
-        self.k = corner_array(self, "stiffness")
-        self.c = corner_array(self, "damping")
-        self.engaged = np.zeros_like(self.k)
-
-    def force(self, s, v, t, dt):
-        pen_c = -self.g_c - s  # > 0: compression stop engaged
-        pen_e = s - self.g_e  # > 0: extension stop engaged
-        f_c = np.where(pen_c > 0, np.maximum(0.0, self.k * pen_c - self.c * v), 0.0)
-        f_e = np.where(pen_e > 0, np.minimum(0.0, -self.k * pen_e - self.c * v), 0.0)
-        self.engaged = (pen_c > 0).astype(float) - (pen_e > 0).astype(float)
-        return f_c + f_e
-
-    def signals(self):
-        """``engaged``: +1 on the compression stop, −1 on the extension stop, 0 free."""
-        return {"engaged": self.engaged}
-
     kernel = staticmethod(_kernel)
 
     def kernel_data(self):
-        return (kernel_pack(self, self.g_c, self.g_e, self.k, self.c),
-                kernel_pack(self, self.engaged))
+        gap = corner_array(self, "gap")
+        g_c = gap if self.p.gap_compression is None else corner_array(self, "gap_compression")
+        g_e = gap if self.p.gap_extension is None else corner_array(self, "gap_extension")
+        return (self.pack(g_c, g_e, corner_array(self, "stiffness"), corner_array(self, "damping")),
+                self.pack(0.0))
 
     def kernel_signals(self):
+        """``engaged``: +1 on the compression stop, −1 on the extension stop, 0 free."""
         return {"engaged": 0}

@@ -10,7 +10,7 @@ from pydantic import Field, model_validator
 
 from ..components import Params
 from ..registry import EFFECTS
-from ._common import PerCornerNonNeg, PerCornerPos, corner_array, reduced_mass, kernel_pack
+from ._common import PerCornerNonNeg, PerCornerPos, corner_array, reduced_mass
 from ..free_parameters import FreeParameter
 from .base import Effect
 
@@ -32,8 +32,9 @@ class CoulombFrictionParams(Params):
 
 @numba.njit(cache=True)
 def _kernel(s, v, t, dt, p, st):
-    """``force`` for one corner; p = [F_c, m_r, v_eps, tanh law (1/0)], st = [F, v_prev, has v_prev (1/0),
-    stuck].  np.tanh here (libm) and in numpy (SIMD) may differ by an ulp."""
+    """The force of one corner; p = [F_c, m_r, v_eps, tanh law (1/0)], st = [F, v_prev, has v_prev (1/0),
+    stuck].  Both laws of the class docstring: ``F = −F_c·tanh(v/v_eps)``, or the time-stepping
+    ``F = clip(−m_r·(v/dt + a_other), −F_c, F_c)`` with ``a_other`` from the previous step."""
     Fc = p[0]
     if p[3] != 0.0:
         F = -Fc * np.tanh(v / p[2])
@@ -43,7 +44,7 @@ def _kernel(s, v, t, dt, p, st):
             a_other = (v - st[1]) / dt - st[0] / p[1]
         x = -p[1] * (v / dt + a_other)
         lo = -Fc
-        F = lo if x < lo else x  # np.clip = min(max(x, lo), hi)
+        F = lo if x < lo else x  # min(max(x, lo), hi)
         F = Fc if F > Fc else F
     st[0] = F
     st[1] = v
@@ -101,46 +102,24 @@ class CoulombFriction(Effect):
     signature = ("force step of 2·F_c at travel-rate reversal (residual vs velocity is a step through 0); "
                  "stick/dead band in travel on small inputs; flat spots at reversals")
 
-    def reset(self):
-        self.Fc = corner_array(self, "force")
-        laws = self.p.law if isinstance(self.p.law, list) else [self.p.law] * self.ctx.n_cars
-        self.tanh = np.array([lw == "tanh" for lw in laws]).reshape(-1, 1)  # per car
-        self.m_r = np.broadcast_to(reduced_mass(self.ctx), self.Fc.shape).copy()
-        self.v_eps = corner_array(self, "v_eps")
-        dt = self.ctx.dt
-        gain = np.where(self.tanh, self.Fc / self.v_eps * dt / self.m_r, 0.0)
-        if np.any(gain > 1.0):
-            vmin = float(np.max(self.Fc * dt / self.m_r))
-            warnings.warn(f"coulomb_friction: v_eps is small for dt={dt:g} s (F_c/v_eps·dt/m_red = "
-                          f"{float(np.max(gain)):.2g} > 1): the friction force will chatter near zero travel "
-                          f"rate; use v_eps >= {vmin:.2g} m/s or a smaller sim.dt", stacklevel=2)
-        self.v_prev = None
-        self.F = np.zeros_like(self.Fc)
-
-    def force(self, s, v, t, dt):
-        v = np.asarray(v, dtype=float)
-        F_tanh = -self.Fc * np.tanh(v / self.v_eps)
-        if self.tanh.all():
-            self.F = F_tanh
-            return self.F
-        a_other = np.zeros_like(v) if self.v_prev is None else (v - self.v_prev) / dt - self.F / self.m_r
-        self.v_prev = v.copy()
-        F_stick = np.clip(-self.m_r * (v / dt + a_other), -self.Fc, self.Fc)
-        self.F = np.where(self.tanh, F_tanh, F_stick)
-        return self.F
-
-    def signals(self):
-        """``force``: the friction force (N); ``stuck``: 1 while the friction holds below F_c."""
-        return {"force": self.F, "stuck": (np.abs(self.F) < self.Fc * (1 - 1e-9)).astype(float)}
-
     kernel = staticmethod(_kernel)
 
     def kernel_data(self):
-        p = kernel_pack(self, self.Fc, self.m_r, self.v_eps, self.tanh.astype(float))
-        has = self.v_prev is not None
-        st = kernel_pack(self, self.F, self.v_prev if has else 0.0, float(has),
-                         self.signals()["stuck"])
-        return p, st
+        Fc = corner_array(self, "force")
+        laws = self.p.law if isinstance(self.p.law, list) else [self.p.law] * self.ctx.n_cars
+        tanh = np.array([lw == "tanh" for lw in laws]).reshape(-1, 1)  # per car
+        m_r = np.broadcast_to(reduced_mass(self.ctx), Fc.shape)
+        v_eps = corner_array(self, "v_eps")
+        dt = self.ctx.dt
+        gain = np.where(tanh, Fc / v_eps * dt / m_r, 0.0)
+        if np.any(gain > 1.0):
+            vmin = float(np.max(Fc * dt / m_r))
+            warnings.warn(f"coulomb_friction: v_eps is small for dt={dt:g} s (F_c/v_eps·dt/m_red = "
+                          f"{float(np.max(gain)):.2g} > 1): the friction force will chatter near zero travel "
+                          f"rate; use v_eps >= {vmin:.2g} m/s or a smaller sim.dt", stacklevel=3)
+        # st: F = 0 and stuck = 1 (|0| < F_c; 0 for F_c = 0) until the first step
+        return self.pack(Fc, m_r, v_eps, tanh), self.pack(0.0, 0.0, 0.0, (0.0 < Fc * (1 - 1e-9)))
 
     def kernel_signals(self):
+        """``force``: the friction force (N); ``stuck``: 1 while the friction holds below F_c."""
         return {"force": 0, "stuck": 3}

@@ -6,7 +6,7 @@ from pydantic import Field
 
 from ..components import Params
 from ..registry import EFFECTS
-from ._common import PerCornerReal, corner_array, kernel_pack
+from ._common import PerCornerReal, corner_array
 from ..free_parameters import FreeParameter
 from .base import Effect
 
@@ -18,8 +18,7 @@ class CubicStiffnessParams(Params):
 
 @numba.njit(cache=True)
 def _kernel(s, v, t, dt, p, st):
-    """``force`` for one corner; p = [k3].  ``s ** 3.0`` is libm pow; numpy's ``s ** 3`` (SIMD pow) may
-    differ by an ulp."""
+    """The force of one corner; p = [k3]."""
     return -p[0] * s ** 3.0
 
 
@@ -45,13 +44,7 @@ class CubicStiffness(Effect):
     signature = ("residual force vs travel is an odd cubic s³; resonance frequency shifts with amplitude "
                  "(Duffing), odd harmonics 3f under sine input")
 
-    def reset(self):
-        self.k3 = corner_array(self, "k3")
-
-    def force(self, s, v, t, dt):
-        return -self.k3 * s ** 3
-
     kernel = staticmethod(_kernel)
 
     def kernel_data(self):
-        return kernel_pack(self, self.k3), kernel_pack(self)
+        return self.pack(corner_array(self, "k3")), self.pack()

@@ -7,7 +7,7 @@ from pydantic import Field
 
 from ..components import Params
 from ..registry import EFFECTS
-from ._common import PerCornerNonNeg, PerCornerPos, corner_array, kernel_pack
+from ._common import PerCornerNonNeg, PerCornerPos, corner_array
 from ..free_parameters import FreeParameter
 from .base import Effect
 
@@ -18,33 +18,21 @@ class HysteresisParams(Params):
                               "reversal and saturates at ±F_h after a few x_y of travel")
 
 
-def bouc_wen_update(w: np.ndarray, ds: np.ndarray, x_y: np.ndarray) -> np.ndarray:
-    """Exact update of the Bouc–Wen state (n = 1, β = γ = ½) for travel increments ``ds`` (arrays).
-
-    dw/ds = (1 − |w|·(1 + sgn(ds·w))/2) / x_y: while loading (ds·w ≥ 0) w → sgn·(1 − (1 − |w|)·e^(−|ds|/x_y)),
-    while unloading (ds·w < 0) w moves linearly by ds/x_y until it crosses zero."""
-    sg = np.where(ds >= 0, 1.0, -1.0)
-    a = np.abs(ds) / x_y
-    u = sg * w
-    lin = np.minimum(a, np.maximum(-u, 0.0))  # the linear (unloading) part of the increment
-    u = u + lin
-    a = a - lin
-    u = np.where(a > 0, 1.0 - (1.0 - u) * np.exp(-a), u)
-    return sg * u
-
-
 @numba.njit(cache=True)
 def _kernel(s, v, t, dt, p, st):
-    """``force`` for one corner; p = [F_h, x_y], st = [w, s_prev, has s_prev (1/0)]; the update is
-    :func:`bouc_wen_update` operation by operation (np.exp here is libm: may differ from numpy's by an ulp)."""
+    """The force of one corner; p = [F_h, x_y], st = [w, s_prev, has s_prev (1/0)].
+
+    The state is updated exactly (n = 1, β = γ = ½) for the travel increment ds since the last step:
+    dw/ds = (1 − |w|·(1 + sgn(ds·w))/2) / x_y, so while unloading (ds·w < 0) w moves linearly by ds/x_y until
+    it crosses zero, and while loading (ds·w ≥ 0) w → sgn·(1 − (1 − |w|)·e^(−|ds|/x_y))."""
     if st[2] != 0.0:
         ds = s - st[1]
         sg = 1.0 if ds >= 0 else -1.0
         a = abs(ds) / p[1]
         u = sg * st[0]
         mu = -u
-        mu = mu if mu > 0.0 else 0.0  # np.maximum(-u, 0.0)
-        lin = a if a < mu else mu  # np.minimum(a, ...)
+        mu = mu if mu > 0.0 else 0.0
+        lin = a if a < mu else mu  # the linear (unloading) part of the increment
         u = u + lin
         a = a - lin
         if a > 0:
@@ -80,28 +68,11 @@ class Hysteresis(Effect):
     signature = ("residual force vs travel forms a rate-independent loop with rounded corners (width ~x_y) "
                  "after reversals; loop area independent of travel rate")
 
-    def reset(self):
-        self.F = corner_array(self, "force")
-        self.xy = corner_array(self, "x_y")
-        self.w = np.zeros_like(self.F)
-        self.s_prev = None
-
-    def force(self, s, v, t, dt):
-        if self.s_prev is not None:
-            self.w = bouc_wen_update(self.w, s - self.s_prev, self.xy)
-        self.s_prev = np.array(s, dtype=float)
-        return -self.F * self.w
-
-    def signals(self):
-        """``w``: the Bouc–Wen state (−1 … 1)."""
-        return {"w": self.w}
-
     kernel = staticmethod(_kernel)
 
     def kernel_data(self):
-        has = self.s_prev is not None
-        return (kernel_pack(self, self.F, self.xy),
-                kernel_pack(self, self.w, self.s_prev if has else 0.0, float(has)))
+        return self.pack(corner_array(self, "force"), corner_array(self, "x_y")), self.pack(0.0, 0.0, 0.0)
 
     def kernel_signals(self):
+        """``w``: the Bouc–Wen state (−1 … 1)."""
         return {"w": 0}

@@ -2,12 +2,11 @@
 from __future__ import annotations
 
 import numba
-import numpy as np
 from pydantic import Field
 
 from ..components import Params
 from ..registry import EFFECTS
-from ._common import PerCornerNonNeg, corner_array, kernel_pack
+from ._common import PerCornerNonNeg, corner_array
 from ..free_parameters import FreeParameter
 from .base import Effect
 
@@ -19,7 +18,7 @@ class QuadraticDampingParams(Params):
 
 @numba.njit(cache=True)
 def _kernel(s, v, t, dt, p, st):
-    """``force`` for one corner; p = [c_v]."""
+    """The force of one corner; p = [c_v]."""
     return -p[0] * v * abs(v)
 
 
@@ -46,13 +45,7 @@ class QuadraticDamping(Effect):
     signature = ("residual force vs travel rate is an odd parabola v|v| (same in compression and rebound); "
                  "extra damping grows with stroke speed, resonance peaks drop more than linearly with amplitude")
 
-    def reset(self):
-        self.c_v = corner_array(self, "c_v")
-
-    def force(self, s, v, t, dt):
-        return -self.c_v * v * np.abs(v)
-
     kernel = staticmethod(_kernel)
 
     def kernel_data(self):
-        return kernel_pack(self, self.c_v), kernel_pack(self)
+        return self.pack(corner_array(self, "c_v")), self.pack()

@@ -2,17 +2,15 @@
 from __future__ import annotations
 
 import numba
-import numpy as np
 
 from ..registry import EFFECTS
-from ._common import kernel_pack
 from ..free_parameters import FreeParameter
 from .base import Effect
 
 
 @numba.njit(cache=True)
 def _kernel(s, v, t, dt, p, st):
-    """``force`` for one corner; p = [k_t, c_t, F_static], st = [lifted]."""
+    """The force of one corner; p = [k_t, c_t, F_static], st = [lifted]."""
     pull = p[0] * s + p[1] * v - p[2]
     st[0] = 1.0 if pull > 0 else 0.0
     return pull if pull > 0.0 else 0.0  # np.maximum(0.0, pull)
@@ -45,26 +43,12 @@ class TireLiftoff(Effect):
     signature = ("tire force clipped at zero total load (dynamic load flat at −static); wheel in free flight, "
                  "landing impacts; only on large inputs near wheel hop")
 
-    def reset(self):
-        n, k = self.ctx.n_cars, len(self.ctx.corners)
-        self.Fs = np.broadcast_to(np.asarray(self.ctx.static_tire_force, dtype=float), (n, k))
-        self.kt = np.broadcast_to(np.asarray(self.ctx.tire_stiffness, dtype=float), (n, k))
-        self.ct = np.broadcast_to(np.asarray(self.ctx.tire_damping, dtype=float), (n, k))
-        self.lifted = np.zeros((n, k))
-
-    def force(self, s, v, t, dt):
-        pull = self.kt * s + self.ct * v - self.Fs
-        self.lifted = (pull > 0).astype(float)
-        return np.maximum(0.0, pull)
-
-    def signals(self):
-        """``lifted``: 1 while the wheel is off the road."""
-        return {"lifted": self.lifted}
-
     kernel = staticmethod(_kernel)
 
     def kernel_data(self):
-        return kernel_pack(self, self.kt, self.ct, self.Fs), kernel_pack(self, self.lifted)
+        ctx = self.ctx
+        return self.pack(ctx.tire_stiffness, ctx.tire_damping, ctx.static_tire_force), self.pack(0.0)
 
     def kernel_signals(self):
+        """``lifted``: 1 while the wheel is off the road."""
         return {"lifted": 0}

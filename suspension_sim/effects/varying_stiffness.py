@@ -16,7 +16,7 @@ from pydantic import Field
 
 from ..components import Params
 from ..registry import EFFECTS
-from ._common import PerCornerReal, corner_array, kernel_pack
+from ._common import PerCornerReal, corner_array
 from .base import Effect
 
 
@@ -29,8 +29,7 @@ class VaryingStiffnessParams(Params):
 
 @numba.njit(cache=True)
 def _kernel(s, v, t, dt, p, st):
-    """``force`` for one corner; p = [offset, A, 2πf, φ], st = [dk] (np.sin here is libm: may differ from
-    numpy's by an ulp)."""
+    """The force of one corner; p = [offset, A, 2πf, φ], st = [dk]."""
     dk = p[0] + p[1] * np.sin(p[2] * t + p[3])
     st[0] = dk
     return -dk * s
@@ -49,24 +48,13 @@ class VaryingStiffness(Effect):
     target = "suspension"
     signature = "residual force ∝ travel with a slope that oscillates in time; ride height unchanged"
 
-    def reset(self):
-        self.amp = corner_array(self, "amplitude")
-        self.off = corner_array(self, "offset")
-        self.w = 2 * np.pi * np.asarray(self.p.frequency, dtype=float)
-        self.ph = np.asarray(self.p.phase, dtype=float)
-        self.dk = np.zeros_like(self.amp)
-
-    def force(self, s, v, t, dt):
-        self.dk = self.off + self.amp * np.sin(self.w * t + self.ph)
-        return -self.dk * s
-
-    def signals(self):
-        return {"dk": self.dk}
-
     kernel = staticmethod(_kernel)
 
     def kernel_data(self):
-        return kernel_pack(self, self.off, self.amp, self.w, self.ph), kernel_pack(self, self.dk)
+        w = 2 * np.pi * np.asarray(self.p.frequency, dtype=float)
+        p = self.pack(corner_array(self, "offset"), corner_array(self, "amplitude"), w, self.p.phase)
+        return p, self.pack(0.0)
 
     def kernel_signals(self):
+        """``dk``: the stiffness change Δk(t) (N/m)."""
         return {"dk": 0}

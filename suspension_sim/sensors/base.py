@@ -72,7 +72,11 @@ class SensorContext:
 
 
 class Sensor:
-    """Base class of a sensor type: :meth:`read` the true value, :meth:`labels` name its components."""
+    """Base class of a sensor type: :meth:`read` the true value, :meth:`labels` name its components.
+
+    A sensor that reads columns of one plant quantity declares them once, in :meth:`kernel_field`: the base
+    :meth:`read` takes them from the :class:`PlantState` and the compiled loop reads them itself.  Any other
+    sensor overrides :meth:`read` (it then runs with the controller in Python)."""
 
     name = "sensor"
     Params = NoParams
@@ -83,7 +87,13 @@ class Sensor:
         self.ctx = ctx
 
     def read(self, s: PlantState) -> np.ndarray:
-        raise NotImplementedError
+        """The true value, (n_cars, k): the columns :meth:`kernel_field` names."""
+        field = self.kernel_field()
+        if field is None:
+            raise NotImplementedError(f"sensor {self.name!r} has neither read() nor kernel_field()")
+        name, cols = field
+        a = np.asarray(getattr(s, name))
+        return a if list(cols) == list(range(a.shape[1])) else a[:, list(cols)]
 
     def labels(self) -> list[str]:
         return [c or "value" for c in self.ctx.suffixes]

@@ -6,25 +6,18 @@ from pydantic import Field
 
 from ..components import Params
 from ..registry import SENSORS
-from .base import PlantState, Sensor
+from .base import Sensor
 
 
 def _corner(attr: str, unit: str, doc: str):
-    def read(self, s: PlantState):
-        return getattr(s, attr)
-
     def kernel_field(self):
         return attr, list(range(len(self.ctx.corners)))
 
-    return type(attr.title().replace("_", ""), (Sensor,),
-                {"read": read, "kernel_field": kernel_field, "unit": unit, "__doc__": doc})
+    return type(attr.title().replace("_", ""), (Sensor,), {"kernel_field": kernel_field, "unit": unit, "__doc__": doc})
 
 
 class _Body(Sensor):
     attr = "body_pos"
-
-    def read(self, s):
-        return getattr(s, self.attr)
 
     def labels(self):
         return list(self.ctx.body_joints)

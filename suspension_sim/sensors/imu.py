@@ -6,8 +6,6 @@ gyro at the c.g. reads (yaw is not modelled).  The heave accelerometer of the IM
 of the ``body_acc`` sensor."""
 from __future__ import annotations
 
-import numpy as np
-
 from ..registry import SENSORS
 from .base import Sensor
 
@@ -20,9 +18,6 @@ class Gyro(Sensor):
 
     def _cols(self):
         return [k for k, j in enumerate(self.ctx.body_joints) if j != "body_z"]
-
-    def read(self, s):
-        return np.asarray(s.body_vel)[:, self._cols()]
 
     def labels(self):
         return [self.ctx.body_joints[k] for k in self._cols()]
