@@ -109,7 +109,6 @@ class AsymmetricDamping(Effect):
     """
 
     Params = AsymmetricDampingParams
-    target = "suspension"
     # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
     free_parameters = {"c_comp": FreeParameter("c", init=0.1, starts=(0.1, 0.0)),
                        "c_reb": FreeParameter("c", init=0.0, starts=(0.0, 0.1))}

@@ -42,7 +42,6 @@ class Backlash(Effect):
     """
 
     Params = BacklashParams
-    target = "suspension"
     # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
     free_parameters = {"stiffness": FreeParameter("max(k, F/s)", init=0.2),
                        "play": FreeParameter("s", init=0.1, size=False)}

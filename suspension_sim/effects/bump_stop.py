@@ -67,7 +67,6 @@ class BumpStop(Effect):
     """
 
     Params = BumpStopParams
-    target = "suspension"
     # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
     free_parameters = {"gap": FreeParameter("s_max", init=0.7, lo=1e-6, starts=(0.5, 0.8), size=False),
                        "stiffness": FreeParameter("max(k, F/s)", init=2.0)}

@@ -93,7 +93,6 @@ class CoulombFriction(Effect):
     """
 
     Params = CoulombFrictionParams
-    target = "suspension"
     # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
     # (the smooth law with its v_eps fitted: a fit needs a force that is differentiable in its parameters)
     free_parameters = {"force": FreeParameter("F", init=0.05),

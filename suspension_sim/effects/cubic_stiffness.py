@@ -38,7 +38,6 @@ class CubicStiffness(Effect):
     """
 
     Params = CubicStiffnessParams
-    target = "suspension"
     # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
     free_parameters = {"k3": FreeParameter("F/s**3", init=0.0, lo=None)}
     signature = ("residual force vs travel is an odd cubic s³; resonance frequency shifts with amplitude "

@@ -61,7 +61,6 @@ class Hysteresis(Effect):
     """
 
     Params = HysteresisParams
-    target = "suspension"
     # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
     free_parameters = {"force": FreeParameter("F", init=0.05),
                        "x_y": FreeParameter("s", init=0.2, lo=1e-3, size=False)}

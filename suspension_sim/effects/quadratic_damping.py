@@ -39,7 +39,6 @@ class QuadraticDamping(Effect):
     """
 
     Params = QuadraticDampingParams
-    target = "suspension"
     # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
     free_parameters = {"c_v": FreeParameter("F/v**2", init=0.05)}
     signature = ("residual force vs travel rate is an odd parabola v|v| (same in compression and rebound); "

@@ -45,7 +45,6 @@ class VaryingStiffness(Effect):
     slope oscillates in time (at f); the body resonance frequency is modulated; no change of ride height."""
 
     Params = VaryingStiffnessParams
-    target = "suspension"
     signature = "residual force ∝ travel with a slope that oscillates in time; ride height unchanged"
 
     kernel = staticmethod(_kernel)
