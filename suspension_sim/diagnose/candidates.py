@@ -163,7 +163,7 @@ class ParameterCandidate(Candidate):
             lo = max(lo, 1e-9)
         sp.free = sp.free + [FreeParam(self.pname, v, lo, hi, max(abs(v), 1e-9))]
         sp.fixed_nominal = [n for n in sp.fixed_nominal if n != self.pname]
-        self.size_names = []
+        self.size_names = [(self.pname, v)]  # named only when it differs from the stated value beyond its error
         return sp, [[f.init for f in sp.free]]
 
     def describe(self, P):

@@ -212,9 +212,11 @@ def build_report(D: Diagnosis, out: Path, confirm: bool = True, plots: bool = Tr
     rb, ra = D.rmse(D.nominal), D.rmse(D.final)
     effects = []
     for cand, fr, tr in D.added:
-        names = [k for k in fr.params if k.startswith(cand.name.split(":")[-1]) or k.startswith(cand.name + ".")]
+        names = [k for k in fr.params if k.startswith(cand.name + ".")]
         if cand.name.startswith("parameter:"):
             names = [cand.name.split(":", 1)[1]]
+        elif not names:  # an actuator candidate: its declared parameter
+            names = [n if isinstance(n, str) else n[0] for n in getattr(cand, "size_names", [])]
         params = {k.split(".", 1)[-1]: fr.params[k] for k in names}
         ci = {k.split(".", 1)[-1]: D.final.ci95.get(k) for k in names}
         desc = cand.describe(D.final.P)

@@ -227,7 +227,10 @@ class Selector:
         ch_b = np.sqrt(np.mean(e_cur ** 2, axis=0))
         ch_a = np.sqrt(np.mean(e_new ** 2, axis=0))
         worse = [c for c, b_, a_, f_ in zip(self.prob.channels, ch_b, ch_a, floor_n) if a_ > b_ + f_]
-        zero = [n for n in size_names if n in fr.params and not (abs(fr.params[n]) > 2.0 * fr.std.get(n, np.inf))]
+        # sizes: an effect's size against zero, a freed nominal parameter's change against its stated value
+        refs = [(n, 0.0) if isinstance(n, str) else n for n in size_names]
+        zero = [n for n, ref in refs if n in fr.params
+                and not (abs(fr.params[n] - ref) > 2.0 * fr.std.get(n, np.inf))]
         signif = z > self.z_min or xa <= 0.5 * xb
         tr.kept = bool(tr.d_bic < 0 and signif and xa <= (1 - self.min_excess_drop) * xb
                        and Ea <= (1 - self.min_rel_drop) * Eb and not worse and not zero)
