@@ -463,3 +463,29 @@ def test_strict_values_refuse_lax_conversions_but_take_numpy_scalars():
             from suspension_sim.config import check_components
 
             check_components(parse_scenario(raw))
+
+
+DASK_SCRIPT = textwrap.dedent("""
+    import os, time
+    from suspension_sim.batch import DaskEngine
+    if __name__ == "__main__":
+        e = DaskEngine(n_local=1)
+        pids = list(e.client.run(os.getpid).values()) + list(e.client.run(os.getpid, nanny=True).values())
+        print("pids", *pids, flush=True)
+        time.sleep(600)
+""")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux")
+def test_dask_local_workers_and_nannies_die_with_a_killed_parent(tmp_path):
+    pytest.importorskip("distributed")
+    s = tmp_path / "d.py"
+    s.write_text(DASK_SCRIPT)
+    proc = subprocess.Popen([sys.executable, str(s)], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+                            cwd=REPO, start_new_session=True)
+    line = proc.stdout.readline()
+    pids = [int(x) for x in line.split()[1:]]
+    assert len(pids) == 2 and all(_alive(p) for p in pids), line
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait(30)
+    assert _wait_dead(pids, 20) == []
