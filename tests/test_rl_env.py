@@ -167,5 +167,5 @@ def test_sb3_adapter_runs_ppo_on_the_ensemble():
     env = SB3VecEnv(SuspensionVectorEnv(2, "quarter_car", overrides=["sim.duration=0.25"]))
     model = sb3.PPO("MlpPolicy", env, n_steps=100, batch_size=100, n_epochs=1, seed=0, device="cpu")
     model.learn(total_timesteps=400)
-    assert len(env.episodes) >= 6 and all(length == 50 for _, _, length in env.episodes)
-    assert all(ret < 0 for _, ret, _ in env.episodes)
+    assert len(env.episodes) >= 6 and all(length == 50 and fresh for _, _, length, fresh in env.episodes)
+    assert all(ret < 0 for _, ret, _, _ in env.episodes)

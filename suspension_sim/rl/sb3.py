@@ -23,7 +23,11 @@ class SB3VecEnv(VecEnv):
         self._ret = np.zeros(self.num_envs)
         self._len = np.zeros(self.num_envs, dtype=int)
         self._seed = None
-        self.episodes: list[tuple[int, float, int]] = []  # (total env steps at the end, return, length)
+        # (total env steps at the end, return, length, fresh): fresh = the episode began with the ensemble's
+        # (at rest, t = 0), not by an in-place restart after a termination (those are shorter, their returns
+        # not comparable)
+        self.episodes: list[tuple[int, float, int, bool]] = []
+        self._fresh = np.ones(self.num_envs, bool)
         self.total_steps = 0
 
     def reset(self):
@@ -31,6 +35,7 @@ class SB3VecEnv(VecEnv):
         self._seed = None
         self._ret[:] = 0
         self._len[:] = 0
+        self._fresh[:] = True
         return obs
 
     def step_async(self, actions):
@@ -47,11 +52,13 @@ class SB3VecEnv(VecEnv):
             infos[i]["terminal_observation"] = obs[i].copy()
             infos[i]["TimeLimit.truncated"] = bool(trunc[i] and not term[i])
             infos[i]["episode"] = {"r": float(self._ret[i]), "l": int(self._len[i])}
-            self.episodes.append((self.total_steps, float(self._ret[i]), int(self._len[i])))
+            self.episodes.append((self.total_steps, float(self._ret[i]), int(self._len[i]), bool(self._fresh[i])))
             self._ret[i] = 0.0
             self._len[i] = 0
-        if trunc.all() or (done.all()):  # the ensemble starts over: take the reset step now
+            self._fresh[i] = False
+        if done.all():  # the ensemble starts over: take the reset step now
             obs, _, _, _, _ = self.venv.step(np.zeros_like(self._actions))
+            self._fresh[:] = True
         return obs, rew.astype(np.float32), done, infos
 
     def close(self):
