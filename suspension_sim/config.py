@@ -124,9 +124,10 @@ class SimCfg(_Strict):
     control_dt: float = Field(0.001, gt=0, description="control step in s (a multiple of dt)")
     log_dt: float = Field(0.001, gt=0, description="logging step in s (a multiple of dt)")
     seed: int = Field(0, ge=0)
-    integrator: Literal["implicitfast", "trapezoidal", "RK4"] = Field(
-        "implicitfast", description="MuJoCo integrator: implicitfast (default; dampers implicit, robust for stiff "
-        "elements, first order: ~w*dt/2 phase lag); trapezoidal (MuJoCo's implicitfast step with the linear "
+    integrator: Literal["auto", "implicitfast", "trapezoidal", "RK4"] = Field(
+        "auto", description="MuJoCo integrator: auto (default: trapezoidal wherever it applies and is stable, "
+        "else implicitfast; the choice and why are written into scenario.resolved.yaml); implicitfast (dampers "
+        "implicit, robust for stiff elements, first order: ~w*dt/2 phase lag); trapezoidal (MuJoCo's implicitfast step with the linear "
         "dampers split half implicit, half explicit, and the body-wheel damper coupling that MuJoCo's implicit "
         "step leaves out supplied from the last step: second order at the same cost; needs damping*dt/mass <= 1 "
         "and a model with tires); or RK4 (4th order for the linear plant; 3.5x the cost). Effect and actuator "

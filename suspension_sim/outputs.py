@@ -13,6 +13,24 @@ from pathlib import Path
 TIMING_KEYS = ("wall_time_s",)  # Result.info entries that vary from run to run (written to timing.json)
 
 
+def resolved_yaml(resolved: dict, info: dict) -> str:
+    """The resolved scenario as YAML, with ``sim.integrator`` the integrator the run used: ``auto`` is written
+    as its choice, with the reason as a comment (``integrator: trapezoidal  # auto: ...``), so that a rerun of
+    the file uses the same scheme."""
+    import yaml
+
+    used, why = info.get("integrator"), info.get("integrator_reason") or ""
+    if used and resolved.get("sim", {}).get("integrator") == "auto":
+        resolved["sim"]["integrator"] = used
+    text = yaml.safe_dump(resolved, sort_keys=False)
+    if used and why:
+        line = f"  integrator: {used}\n"
+        k = text.find(line, text.find("\nsim:\n"))
+        if k >= 0:
+            text = text[:k] + f"  integrator: {used}  # {why.replace(chr(10), ' ')}\n" + text[k + len(line):]
+    return text
+
+
 def write_result(result, out: Path, plots: bool = True, timeseries: bool = True) -> Path:
     """Write ``timeseries.parquet``, ``summary.json``, ``scenario.resolved.yaml`` and ``plots/*.png`` (and
     ``viewer.html`` / ``report.html`` when the scenario's ``outputs.viewer`` / ``outputs.report`` are set)."""
@@ -29,7 +47,7 @@ def write_result(result, out: Path, plots: bool = True, timeseries: bool = True)
     resolved["sim"]["seed"] = result.scenario.sim.seed
     header = (f"# resolved by suspension_sim {result.info['versions'].get('suspension_sim')} "
               f"(mujoco {result.info['versions'].get('mujoco')}); rerun with: suspension-sim run {out / 'scenario.resolved.yaml'}\n")
-    (out / "scenario.resolved.yaml").write_text(header + yaml.safe_dump(resolved, sort_keys=False))
+    (out / "scenario.resolved.yaml").write_text(header + resolved_yaml(resolved, result.info))
     from .outdir import write_atomic
 
     # summary.json is a function of the scenario and its seed (byte-identical when rerun); wall-clock times go

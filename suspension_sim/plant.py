@@ -82,6 +82,16 @@ class Plant:
         self.data = mujoco.MjData(self.model)
         self._index()
 
+    def use_trapezoidal(self):
+        """Switch an implicitfast plant with tires to the trapezoidal scheme: MuJoCo integrates half of each
+        linear damper implicitly (the loop applies the other half explicitly).  Used by ``integrator: auto``,
+        which decides after the model is built (the scheme's stability limit needs the model's masses)."""
+        m = self.model
+        self.integrator = "trapezoidal"
+        m.tendon_damping[self.susp_t] = 0.5 * self.susp_c
+        if self.has_tire:
+            m.tendon_damping[self.tire_t] = 0.5 * self.tire_c
+
     def _assemble(self) -> mujoco.MjModel:
         """The ensemble model: each car's MJCF (built once per distinct parameter set with dm_control, then
         reused as MJCF text) attached with ``mujoco.MjSpec`` under the prefix ``car{i}/``.  Building each car
@@ -204,10 +214,8 @@ class Plant:
         if not self.road_dof:  # the tire springs' rest lengths at equilibrium (road at 0)
             self.tire_rest0 = m.tendon_lengthspring[self.tire_t].copy()  # (n, nc, 2)
             self.tire_ct = self.tire_c.copy()
-        if self.integrator == "trapezoidal":  # MuJoCo integrates half of each damper implicitly
-            m.tendon_damping[self.susp_t] = 0.5 * self.susp_c
-            if self.has_tire:
-                m.tendon_damping[self.tire_t] = 0.5 * self.tire_c
+        if self.integrator == "trapezoidal":
+            self.use_trapezoidal()
         self.road_mass = 1e12
         if self.integrator == "RK4":
             # RK4 evaluates forces at intermediate stages: keep the road plates on their kinematic path

@@ -160,6 +160,9 @@ def _infos(sim, wall: float) -> list[dict]:
             "stop_gap": gaps[i],
             "stop_gap_sides": sides[i],
             "full_state_access": full,
+            # the integrator used (sim.integrator: auto resolves at build time) and why
+            "integrator": getattr(sim, "integrator", None),
+            "integrator_reason": getattr(sim, "integrator_reason", ""),
             "wall_time_s": w,
             "ensemble_size": P.n,
             "versions": versions(),

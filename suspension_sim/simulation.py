@@ -125,7 +125,9 @@ class Simulation:
         self.sub = int(round(self.control_dt / self.dt))
         self.log_every = int(round(self.log_dt / self.dt))
         self.n_steps = int(round(self.duration / self.dt))
-        self.plant = Plant([s.vehicle for s in self.scenarios], self.dt, source, integrator=sim.integrator)
+        auto = sim.integrator == "auto"
+        self.plant = Plant([s.vehicle for s in self.scenarios], self.dt, source,
+                           integrator="implicitfast" if auto else sim.integrator)
         self.rk4 = sim.integrator == "RK4"
         P = self.plant
         n, nc = P.n, P.nc
@@ -136,8 +138,21 @@ class Simulation:
         kt = m.tendon_stiffness[P.tire_t] if P.has_tire else np.zeros((n, nc))
         ct = P.tire_c
         self.kt, self.ct = kt, ct
-        self.trap = sim.integrator == "trapezoidal"
-        if self.trap:
+        # integrator: "auto" takes the second-order trapezoidal scheme wherever it applies and is stable, else
+        # implicitfast; the choice and its reason go into the run's info and scenario.resolved.yaml
+        self.integrator, self.integrator_reason = sim.integrator, ""
+        if auto:
+            why_not = self._trapezoidal_refusal()
+            if why_not is None:
+                P.use_trapezoidal()
+                self.integrator = "trapezoidal"
+                self.integrator_reason = ("auto: second order; stable here (damping*dt/mass = "
+                                          f"{self._trap_ratio:.3g} <= 1)")
+            else:
+                self.integrator = "implicitfast"
+                self.integrator_reason = f"auto: trapezoidal not usable ({why_not[0]}), first-order fallback"
+        self.trap = self.integrator == "trapezoidal"
+        if self.trap and not auto:
             self._check_trapezoidal(source)
 
         # effects ------------------------------------------------------------------------------------
@@ -243,23 +258,32 @@ class Simulation:
         return out
 
     # ------------------------------------------------------------------------------------------------
-    def _check_trapezoidal(self, source):
-        """The trapezoidal scheme's limits: a model with tires (the SDOF rig's base is a prescribed plate), no
-        time-varying damping, and damping·dt/m_eff <= 1 on every suspension (the body-wheel coupling is taken
-        from the last step, which diverges for stiffer dampers; measured on the quarter car: stable at 2.0,
-        divergent at 3.1)."""
+    def _trapezoidal_refusal(self):
+        """None if the trapezoidal scheme applies to this ensemble, else (short reason, the error's message).
+        Its limits: a model with tires (the SDOF rig's base is a prescribed plate), no time-varying damping,
+        and damping·dt/m_eff <= 1 on every suspension of every car (the body-wheel coupling is taken from the
+        last step, which diverges for stiffer dampers; measured on the quarter car: stable at 2.0, divergent
+        at 3.1)."""
         P, sc0 = self.plant, self.scenarios[0]
         if not P.has_tire:
-            raise ScenarioError(f"integrator 'trapezoidal' needs a model with tires ({sc0.vehicle.model!r} has none); "
-                                "use implicitfast or RK4", source=source, field="sim.integrator")
+            return ("model without tires",
+                    f"integrator 'trapezoidal' needs a model with tires ({sc0.vehicle.model!r} has none); "
+                    "use implicitfast or RK4")
         if any("damping" in v.param for v in sc0.vehicle.variations):
-            raise ScenarioError("integrator 'trapezoidal' does not support time-varying damping; use implicitfast "
-                                "or RK4", source=source, field="sim.integrator")
+            return ("time-varying damping",
+                    "integrator 'trapezoidal' does not support time-varying damping; use implicitfast or RK4")
         ratio = P.susp_c * self.dt / self._tendon_effective_mass(P.susp_t)
-        if np.max(ratio) > 1.0:
-            raise ScenarioError(f"integrator 'trapezoidal' needs damping*dt/mass <= 1 on every suspension (here "
-                                f"{np.max(ratio):.3g}); use a smaller sim.dt, or implicitfast (any damping)",
-                                source=source, field="sim.integrator")
+        self._trap_ratio = float(np.max(ratio))
+        if self._trap_ratio > 1.0:
+            return (f"damping*dt/mass = {self._trap_ratio:.3g} > 1",
+                    f"integrator 'trapezoidal' needs damping*dt/mass <= 1 on every suspension (here "
+                    f"{self._trap_ratio:.3g}); use a smaller sim.dt, or implicitfast (any damping)")
+        return None
+
+    def _check_trapezoidal(self, source):
+        why_not = self._trapezoidal_refusal()
+        if why_not is not None:
+            raise ScenarioError(why_not[1], source=source, field="sim.integrator")
 
     def _trapezoidal_coupling(self, d, v_prev):
         """Generalized forces standing in for the body-wheel entries of the suspension dampers' implicit
