@@ -248,6 +248,9 @@ def info(sim, i: int, wall: float) -> dict:
         "stop_gap": _stop_gaps(sim, i),
         "stop_gap_sides": _stop_gap_sides(sim, i),
         "full_state_access": bool(sim.full_state),
+        # info added later (not a computation path): the integrator used, sim.integrator: auto resolved
+        "integrator": sim.integrator,
+        "integrator_reason": sim.integrator_reason,
         "wall_time_s": wall / P.n,
         "ensemble_size": P.n,
         "versions": versions(),

@@ -477,3 +477,29 @@ def test_half_car_rear_road_delay_varying_speed():
             rear = np.where(xr >= 0, rear, 0.0)
             np.testing.assert_allclose(ts["road_front"], front, atol=1e-9)
             np.testing.assert_allclose(ts["road_rear"], rear, atol=1e-6)
+
+
+def test_default_integrator_is_trapezoidal_where_stable_else_implicitfast(tmp_path):
+    """``sim.integrator: auto`` (the default) is the trapezoidal scheme, bit for bit, where it applies and is
+    stable, and implicitfast, bit for bit, where it is not (no tires; damping*dt/mass > 1); the choice and
+    its reason reach the run's info and ``scenario.resolved.yaml``, which reruns with the same scheme."""
+    from suspension_sim.config import SimCfg
+    from suspension_sim.outputs import write_result
+
+    assert SimCfg().integrator == "auto"
+    road = dict(type="sine", params=dict(amplitude=0.01, frequency=9.4))
+    cases = [("quarter_car", {}, "trapezoidal", "stable here"),
+             ("quarter_car", {"damping": 1e6}, "implicitfast", "damping*dt/mass"),
+             ("sdof", {}, "implicitfast", "without tires")]
+    for model, vp, expect, why in cases:
+        auto = Simulation([scenario(model, vp, road=road, duration=0.3, integrator="auto")])
+        assert auto.integrator == expect and why in auto.integrator_reason, (model, vp, auto.integrator_reason)
+        ra = auto.run()[0]
+        rx = Simulation([scenario(model, vp, road=road, duration=0.3, integrator=expect)]).run()[0]
+        assert ra.ts.equals(rx.ts), (model, vp)
+        assert ra.info["integrator"] == expect and rx.info["integrator_reason"] == ""
+    out = write_result(ra, tmp_path / "run", plots=False, timeseries=False)
+    text = (out / "scenario.resolved.yaml").read_text()
+    assert "  integrator: implicitfast  # auto: trapezoidal not usable (model without tires)" in text, text
+    from suspension_sim.config import load_scenario
+    assert load_scenario(out / "scenario.resolved.yaml").sim.integrator == "implicitfast"
