@@ -15,7 +15,7 @@ def nonfinite_state(sim, what: str, car: int | None = None) -> dict:
     array that held the bad value."""
     out: dict = {}
     names = ("actuator_force", "effect_force", "tire_effect_force")
-    forces = getattr(sim, "_last_forces", ()) or ()
+    forces = getattr(sim, "last_forces", ()) or ()
     sfx = list(getattr(sim.plant, "suffixes", [])) or [""]
     for name, f in zip(names, forces):
         a = np.asarray(f, dtype=float)

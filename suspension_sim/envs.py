@@ -55,6 +55,7 @@ from dm_env import specs
 
 from .config import Scenario, load_scenario
 from .errors import ScenarioError
+from .loop import plant_state
 from .sensors.base import full_state_readings
 from .simulation import Simulation
 
@@ -158,13 +159,13 @@ class SuspensionPhysics(_engine.Physics):
         sim = self.sim
         P, m, d = sim.plant, sim.plant.model, sim.plant.data
         k = sim.n_steps
-        z, zd = sim._road_chunk(k, k + 1)[:2]
+        z, zd = sim.road_chunk(k, k + 1)[:2]
         road, road_vel = z[:, 0, :], zd[:, 0, :]
         acc, F_act, F_teff = sim.end_forces  # the last physics step's, as the loop would hold them
         P.place_road(d, road, road_vel)
         mujoco.mj_step1(m, d)
         P.restore_road()
-        state = sim._state(k * sim.dt, road, road_vel, acc, F_act, F_teff)
+        state = plant_state(sim, k * sim.dt, road, road_vel, acc, F_act, F_teff)
         readings = {ch.name: ch.sample(state) for ch in sim.sensors}
         if sim.full_state:
             readings.update(full_state_readings(state))

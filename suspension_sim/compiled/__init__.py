@@ -1,6 +1,6 @@
 """Compiled closed loop: the per-step work of :class:`~suspension_sim.simulation.Simulation` in one numba loop.
 
-The Python loop of ``simulation.py`` calls component methods every 0.5 ms physics step; the Python round
+The Python loop (``loop.py``) calls component methods every 0.5 ms physics step; the Python round
 trip, not the arithmetic, then dominates (≈ 50 µs per step for a lone quarter car against 2 µs of MuJoCo).
 A built-in component's law is a *kernel* (a numba function for one corner or one car), which the Python
 loop runs broadcast over the ensemble (:mod:`suspension_sim.kernels`).  When every component of a scenario

@@ -7,7 +7,7 @@
 - ``"hybrid"``: effects and actuator compiled, the controller (or a sensor, or full-state access) stays in
   Python: the compiled loop returns at each control instant, Python reads the sensors and calls the
   controller exactly as the Python loop does, and the compiled loop goes on with the command;
-- ``None`` (with the reason): the Python loop of ``simulation.py`` runs (an effect or actuator without a
+- ``None`` (with the reason): the Python loop of ``loop.py`` runs (an effect or actuator without a
   kernel, or ``SUSPENSION_SIM_COMPILED=0``).  Manoeuvre loads are computed per chunk in Python and added
   by the loop.  Time-varying parameters are applied from Python
   before each control instant (the loop returns there).
@@ -18,7 +18,7 @@ combination compiles it (3–5 s), later runs and processes load it from disk (~
 ``$SUSPENSION_SIM_CACHE`` or ``~/.cache/suspension_sim``; when it is not writable, a temporary folder is used
 (compiled again in each process).
 
-The loop does what ``Simulation._steps`` does, in the same order and with the same arithmetic, so the
+The loop does what ``loop.steps`` does, in the same order and with the same arithmetic, so the
 results are the same (the tests compare the two loops value by value).
 """
 from __future__ import annotations
@@ -29,6 +29,7 @@ import os
 import sys
 import tempfile
 import time as _time
+import types
 from pathlib import Path
 
 import mujoco
@@ -257,7 +258,7 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
             return PRE + k
         pre_done = False
         if not skip:
-            if has_man:  # the manoeuvre's loads of this step (Simulation._steps: zero, then AppliedManeuver.apply)
+            if has_man:  # the manoeuvre's loads of this step (loop.steps: zero, then AppliedManeuver.apply)
                 for q in range(qfrc.shape[0]):
                     qfrc[q] = 0.0
                 for i in range(n):
@@ -308,7 +309,7 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                         cmd[i, c] = 0.0
 {ctrl_block}                kc_arr[0] = kc + 1
         skip = False
-        if trap:  # body-wheel damper coupling from the last step's velocity change (Simulation._trapezoidal_coupling)
+        if trap:  # body-wheel damper coupling from the last step's velocity change (loop.trapezoidal_coupling)
             for i in range(n):
                 for b in range(nb):
                     fb = 0.0
@@ -353,7 +354,7 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                     ctrl[eff_s[i, c]] = f
                     if has_tire and road_dof:
                         ctrl[eff_t[i, c]] = ft
-                if trap:  # the explicit half of the linear dampers (Simulation._steps)
+                if trap:  # the explicit half of the linear dampers (loop.steps)
                     ctrl[eff_s[i, c]] = F_eff[i, c] + (-half_cs[i, c] * v)
                     ctrl[eff_t[i, c]] = (F_teff[i, c] + tire_ct[i, c] * road_zd[jr, i, c]) + \
                         (-half_ct[i, c] * ten_vel[tire_t[i, c]])
@@ -566,9 +567,11 @@ def metric_channels(suffixes) -> set | None:
     return out
 
 
-def run(sim, mode: str, progress=None) -> list:
-    """Run ``sim`` with the compiled loop (``mode`` from :func:`plan`); the Results of the Python loop."""
-    steps = run_steps(sim, mode, progress)
+def run(sim, mode: str, progress, logger) -> float:
+    """Run ``sim`` with the compiled loop (``mode`` from :func:`plan`), recording into ``logger`` (a
+    :class:`~suspension_sim.log.Logger`: its ``t`` and ``ch`` are written here) the log of the Python loop;
+    returns the wall time (s) of the loop."""
+    steps = run_steps(sim, mode, progress, logger)
     try:
         readings = next(steps)
         while True:  # hybrid: the controller in Python at each control instant
@@ -577,12 +580,13 @@ def run(sim, mode: str, progress=None) -> list:
         return stop.value
 
 
-def run_steps(sim, mode: str, progress=None):
+def run_steps(sim, mode: str, progress=None, logger=None):
     """:func:`run` as a generator: in the hybrid mode it yields the sensor readings at each control instant
     (``sim.t``, ``sim.state`` set) and takes the command (n_cars, n_corners) by ``send`` (step-wise use, e.g.
-    the reinforcement-learning envs of :mod:`suspension_sim.rl`); returns the Results (``StopIteration.value``)."""
+    the reinforcement-learning envs of :mod:`suspension_sim.rl`); returns the wall time (``StopIteration.value``).
+    Without a ``logger`` the log is kept in a bare record (``t``, ``ch``) nobody reads."""
     from ..errors import SimulationDiverged
-    from ..results import Logger, Result
+    from ..loop import check_divergence, plant_state
     from ..sensors.base import PlantState  # noqa: F401  (documented type of sim.state)
 
     P = sim.plant
@@ -590,7 +594,7 @@ def run_steps(sim, mode: str, progress=None):
     n, nc = P.n, P.nc
     full = mode == "full"
     mujoco.mj_resetData(m, d)
-    sim._build_corner_jacobian()
+    sim.build_corner_jacobian()
     sim.actuator.reset()
     sim.controller.reset()
     for e, _ in sim.effects:
@@ -650,7 +654,7 @@ def run_steps(sim, mode: str, progress=None):
                 elif sname in a_idx:
                     aux = a_idx[sname]
                 else:
-                    ch.sensor.read(sim._state(0.0, np.zeros((n, nc)), np.zeros((n, nc)), np.zeros(m.nv),
+                    ch.sensor.read(plant_state(sim, 0.0, np.zeros((n, nc)), np.zeros((n, nc)), np.zeros(m.nv),
                                               np.zeros((n, nc)), np.zeros((n, nc))))  # raises the user error
                     raise RuntimeError(f"actuator state {sname!r} has no kernel index")
             kk = len(cols)
@@ -687,7 +691,7 @@ def run_steps(sim, mode: str, progress=None):
     sensor_code = [(int(sens["field"][j]), bool(sens["delay"][j] == 0 and sens["hold"][j] == 1 and sens["std"][j] == 0
                                                 and sens["q"][j] == 0)) for j in range(ns)] if full else []
     mod = load_module(effects, actuator, controller, sensor_code)
-    from ..simulation import n_log_samples
+    from ..build import n_log_samples
 
     n_log = n_log_samples(sim.n_steps, sim.log_every)
     layout = _Layout(sim)
@@ -721,7 +725,7 @@ def run_steps(sim, mode: str, progress=None):
     tire_t = _i64(P.tire_t) if P.has_tire else dummy
     eff_t = _i64(P.eff_t) if P.has_tire else dummy
     kt, ct = _f64(sim.kt), _f64(sim.ct)
-    Jb = _f64(sim._Jb)
+    Jb = _f64(sim.Jb)
     cmd, F_act, F_eff, F_teff = (np.zeros((n, nc)) for _ in range(4))
     acc, v_before = np.zeros(m.nv), np.zeros(m.nv)
     sv = np.zeros((n, nc, 2))
@@ -752,7 +756,8 @@ def run_steps(sim, mode: str, progress=None):
                         kc_arr, c_p, c_st, L, layout.LC, layout.lc_act, act_j, layout.lc_y, layout.lc_ctrl,
                         ctrl_j, *eff_full)
 
-    logger = Logger(sim, n_log=n_log)
+    if logger is None:
+        logger = types.SimpleNamespace(t=np.zeros(n_log), ch={})
     logger.t[:] = (np.arange(n_log) * sim.log_every) * sim.dt
 
     def attach_log():
@@ -766,7 +771,7 @@ def run_steps(sim, mode: str, progress=None):
     for k_chunk0 in range(0, sim.n_steps, chunk):
         k1 = min(k_chunk0 + chunk, sim.n_steps)
         # step-major (step, car, corner): one step's road for all cars is contiguous
-        chunks = [np.ascontiguousarray(a.transpose(1, 0, 2), dtype=np.float64) for a in sim._road_chunk(k_chunk0, k1)]
+        chunks = [np.ascontiguousarray(a.transpose(1, 0, 2), dtype=np.float64) for a in sim.road_chunk(k_chunk0, k1)]
         road_z, road_zd = chunks[0], chunks[1]
         road_zdd = chunks[2] if sim.rk4 else road_z  # RK4: the plates' acceleration (unused otherwise)
         if sim.maneuver is not None:  # the manoeuvre's pitch/roll loads of the chunk's steps
@@ -778,21 +783,21 @@ def run_steps(sim, mode: str, progress=None):
             r = call(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume)
             if r == k1:
                 break
-            if r >= PRE:  # time-varying parameters at control instant k, as Simulation._steps applies them
+            if r >= PRE:  # time-varying parameters at control instant k, as loop.steps applies them
                 k, resume = r - PRE, 2
-                sim._apply_variations(k * sim.dt)
+                sim.apply_variations(k * sim.dt)
                 continue
             if r < 0:
                 kd = -r - 1
-                sim._last_forces = (F_act, F_eff, F_teff)
-                sim._check(kd * sim.dt, d)  # raises with the state and a hint
+                sim.last_forces = (F_act, F_eff, F_teff)
+                check_divergence(sim, kd * sim.dt, d)  # raises with the state and a hint
                 raise SimulationDiverged(kd * sim.dt, {}, "the compiled loop's state check failed")
-            # hybrid: a control instant handled in Python, exactly as Simulation._steps does
+            # hybrid: a control instant handled in Python, exactly as loop.steps does
             k, resume = r, 1
             t = k * sim.dt
             jr = k - k_chunk0
-            sim._last_forces = (F_act.copy(), F_eff.copy(), F_teff.copy())
-            state = sim._state(t, road_z[jr].copy(), road_zd[jr].copy(), acc, F_act.copy(), F_teff.copy())
+            sim.last_forces = (F_act.copy(), F_eff.copy(), F_teff.copy())
+            state = plant_state(sim, t, road_z[jr].copy(), road_zd[jr].copy(), acc, F_act.copy(), F_teff.copy())
             states = {nm: a_st[:, :, a_idx[nm]].copy() for nm in act_names}
             states["force"] = F_act.copy()
             state.actuator_states = states
@@ -836,7 +841,7 @@ def run_steps(sim, mode: str, progress=None):
     if full:
         ctrl.kernel_sync(c_st)
     sim.end_forces = (acc, F_act, F_teff)
-    sim._check(sim.n_steps * sim.dt, d)
+    check_divergence(sim, sim.n_steps * sim.dt, d)
     P.restore_road()
     wall = _time.perf_counter() - wall0
-    return [Result.from_logger(logger, i, sim, wall) for i in range(n)]
+    return wall

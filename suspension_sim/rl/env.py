@@ -285,7 +285,7 @@ class _Core:
             return False
         from ..registry import ROADS
         from ..roads.base import RoadContext
-        from ..simulation import SpeedProfile, _PerCarRNG
+        from ..build import PerCarRNG, SpeedProfile
         from ..components import validate_params
 
         sim = self.sim
@@ -304,7 +304,7 @@ class _Core:
             roads.append(rcls(rp, np.random.default_rng([seed, 8608]), rctx))
         sim.speeds, sim.roads = speeds, roads
         for j, ch in enumerate(sim.sensors):
-            ch.rng = _PerCarRNG([np.random.default_rng([s.sim.seed, 2631, j]) for s in scenarios])
+            ch.rng = PerCarRNG([np.random.default_rng([s.sim.seed, 2631, j]) for s in scenarios])
         sim.scenarios = list(scenarios)
         return True
 

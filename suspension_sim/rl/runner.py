@@ -34,10 +34,10 @@ class EnsembleRunner:
 
     def start(self):
         from ..compiled.loop import run_steps
-        from ..simulation import _one_blas_thread
+        from ..loop import one_blas_thread
 
         self.close()
-        _one_blas_thread()
+        one_blas_thread()
         self.sim.loop = self.loop
         if self.loop == "hybrid":
             self._gen = run_steps(self.sim, "hybrid")

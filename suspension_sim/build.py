@@ -1,0 +1,418 @@
+"""The build: scenarios -> a :class:`System` of components with explicit inputs and outputs, no stepping.
+
+One ensemble (structurally equal scenarios, parameters may differ per car) becomes:
+
+- the plant (:class:`~suspension_sim.plant.Plant`: one MuJoCo model holding every car; inputs: road height
+  and rate under each wheel, actuator and effect forces per corner; outputs: the MuJoCo state);
+- ``effects``: (effect, corner indices) pairs; input travel and rate (or tire deflection), output a force;
+- ``actuator``: input the command, travel and rate, output the force on each corner;
+- ``roads`` and ``speeds``: road height under each wheel over time (:meth:`System.road_chunk`);
+- ``variations``: time-varying model parameters (:meth:`System.apply_variations`), ``maneuver``: inertial
+  loads;
+- ``sensors``: true plant quantities -> readings; ``controller``: readings -> command per corner.
+
+Stepping the system is :mod:`suspension_sim.loop` (Python) and :mod:`suspension_sim.compiled.loop`;
+:class:`suspension_sim.simulation.Simulation` builds, runs and logs.
+"""
+from __future__ import annotations
+
+import dataclasses
+from typing import Sequence
+
+import mujoco
+import numpy as np
+
+from .actuators.base import ActuatorContext
+from .components import stack_params, validate_params
+from .config import Scenario
+from .controllers.base import ControlContext
+from .effects.base import EffectContext
+from .errors import ScenarioError
+from .maneuvers import build_maneuver
+from .plant import Plant
+from .registry import ACTUATORS, CONTROLLERS, EFFECTS, ROADS, SENSORS
+from .roads.base import RoadContext
+from .sensors.base import PlantState, SensorChannel, SensorContext
+
+STRUCTURE_KEYS = ("vehicle.model", "effects", "actuator.type", "controller.type", "sensors", "sim")
+
+
+def structure_key(sc: Scenario) -> tuple:
+    """Scenarios with equal keys can be simulated together as one ensemble (parameters may differ)."""
+    return (
+        sc.vehicle.model,
+        tuple((e.type, tuple(e.corners) if e.corners != "all" else "all") for e in sc.vehicle.effects),
+        tuple((v.param, v.kind, v.mode) for v in sc.vehicle.variations),
+        sc.vehicle.maneuver.type if sc.vehicle.maneuver else None,
+        sc.actuator.type,
+        sc.controller.type,
+        sc.controller.full_state,
+        tuple((s.name, s.type) for s in sc.sensors),
+        (sc.sim.duration, sc.sim.dt, sc.sim.control_dt, sc.sim.log_dt, sc.sim.integrator),
+    )
+
+
+class SpeedProfile:
+    """Vehicle speed and distance over time (constant, or linear between [time, speed] points)."""
+
+    def __init__(self, speed, duration: float, dt: float):
+        if isinstance(speed, (int, float)):
+            self.const = float(speed)
+            self.t = self.x = None
+        else:
+            self.const = None
+            pts = np.asarray(speed, dtype=float)
+            tg = np.arange(0.0, duration + 2 * dt, dt)
+            v = np.interp(tg, pts[:, 0], pts[:, 1])
+            x = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * dt)])
+            self.t, self.v, self.x = tg, v, x
+
+    def distance(self, t):
+        if self.const is not None:
+            return self.const * np.asarray(t, dtype=float)
+        return np.interp(t, self.t, self.x)
+
+    def speed(self, t):
+        if self.const is not None:
+            return np.full_like(np.asarray(t, dtype=float), self.const)
+        return np.interp(t, self.t, self.v)
+
+    def time_at(self, x, t_now):
+        """Time at which the front axle was at distance x (x may be behind the start)."""
+        if self.const is not None:
+            if self.const <= 0:
+                return np.asarray(t_now, dtype=float)
+            return np.asarray(x, dtype=float) / self.const
+        v0 = max(self.v[0], 1e-9)
+        xt = np.asarray(x, dtype=float)
+        inside = np.interp(xt, self.x, self.t) if self.x[-1] > self.x[0] else np.asarray(t_now, dtype=float)
+        before = xt / v0 if self.v[0] > 0 else np.zeros_like(xt)
+        return np.where(xt < 0, before, inside)
+
+    @property
+    def max_distance(self) -> float:
+        return float(self.x[-1]) if self.const is None else 0.0
+
+    def mean(self, duration):
+        return self.const if self.const is not None else float(np.mean(self.v))
+
+
+def n_log_samples(n_steps: int, log_every: int) -> int:
+    """Logged instants of a run: steps 0, log_every, 2·log_every, ... below n_steps (one more than
+    n_steps // log_every when the duration is not a multiple of log_dt)."""
+    return -(-int(n_steps) // int(log_every))
+
+
+class System:
+    """One ensemble's components, built from structurally equal scenarios (no stepping: see
+    :mod:`suspension_sim.loop`)."""
+
+    def __init__(self, scenarios: Sequence[Scenario], source: str | None = None):
+        if not scenarios:
+            raise ValueError("no scenario")
+        keys = {structure_key(s) for s in scenarios}
+        if len(keys) != 1:
+            raise ScenarioError("scenarios of one ensemble must share model, effects, actuator, controller, "
+                                "sensors and timing", source=source)
+        self.scenarios = list(scenarios)
+        self.source = source
+        sc0 = self.scenarios[0]
+        sim = sc0.sim
+        self.dt, self.control_dt, self.log_dt, self.duration = sim.dt, sim.control_dt, sim.log_dt, sim.duration
+        self.sub = int(round(self.control_dt / self.dt))
+        self.log_every = int(round(self.log_dt / self.dt))
+        self.n_steps = int(round(self.duration / self.dt))
+        auto = sim.integrator == "auto"
+        self.plant = Plant([s.vehicle for s in self.scenarios], self.dt, source,
+                           integrator="implicitfast" if auto else sim.integrator)
+        self.rk4 = sim.integrator == "RK4"
+        P = self.plant
+        n, nc = P.n, P.nc
+        self.geom = P.geometry
+        m = P.model
+        ks = m.tendon_stiffness[P.susp_t]
+        cs = P.susp_c  # the full linear damping (MuJoCo holds half of it with the trapezoidal scheme)
+        kt = m.tendon_stiffness[P.tire_t] if P.has_tire else np.zeros((n, nc))
+        ct = P.tire_c
+        self.kt, self.ct = kt, ct
+        # integrator: "auto" takes the second-order trapezoidal scheme wherever it applies and is stable, else
+        # implicitfast; the choice and its reason go into the run's info and scenario.resolved.yaml
+        self.integrator, self.integrator_reason = sim.integrator, ""
+        if auto:
+            why_not = self.trapezoidal_refusal()
+            if why_not is None:
+                P.use_trapezoidal()
+                self.integrator = "trapezoidal"
+                self.integrator_reason = ("auto: second order; stable here (damping*dt/mass = "
+                                          f"{self._trap_ratio:.3g} <= 1)")
+            else:
+                self.integrator = "implicitfast"
+                self.integrator_reason = f"auto: trapezoidal not usable ({why_not[0]}), first-order fallback"
+        self.trap = self.integrator == "trapezoidal"
+        if self.trap and not auto:
+            self.check_trapezoidal(source)
+
+        # effects ------------------------------------------------------------------------------------
+        self.effects = []
+        for i, ecfg in enumerate(sc0.vehicle.effects):
+            ecls = EFFECTS.get(ecfg.type, field=f"vehicle.effects.{i}.type", source=source)
+            sel = list(range(nc)) if ecfg.corners == "all" else [self.geom.corner_names.index(c) for c in ecfg.corners]
+            if ecls.target == "tire" and not P.has_tire:
+                raise ScenarioError(f"effect '{ecfg.type}' acts on the tire, and model '{sc0.vehicle.model}' has none",
+                                    source=source, field=f"vehicle.effects.{i}.type")
+            plist = [validate_params(ecls.Params, s.vehicle.effects[i].params, f"vehicle.effects.{i}.params", source)
+                     for s in self.scenarios]
+            ctx = EffectContext(n_cars=n, corners=[self.geom.corner_names[c] for c in sel], dt=self.dt,
+                                static_suspension_force=P.static_susp[:, sel], static_tire_force=P.static_tire[:, sel],
+                                spring_stiffness=ks[:, sel], damping=cs[:, sel], tire_stiffness=kt[:, sel],
+                                tire_damping=ct[:, sel],
+                                effective_mass=self.tendon_effective_mass(
+                                    (P.tire_t if ecls.target == "tire" else P.susp_t)[:, sel]))
+            self.effects.append((ecls(stack_params(plist, len(sel)), ctx), np.asarray(sel)))
+
+        # actuator --------------------------------------------------------------------------------------
+        acls = ACTUATORS.get(sc0.actuator.type, field="actuator.type", source=source)
+        ap = stack_params([validate_params(acls.Params, s.actuator.params, "actuator.params", source)
+                           for s in self.scenarios], nc)
+        self.actuator = acls(ap, ActuatorContext(n, nc, self.dt, self.control_dt, P.static_susp.copy()))
+
+        # roads ----------------------------------------------------------------------------------------
+        self.speeds, self.roads = [], []
+        for i, s in enumerate(self.scenarios):
+            sp = SpeedProfile(s.road.speed, self.duration, self.dt)
+            rcls = ROADS.get(s.road.type, field="road.type", source=source)
+            rp = validate_params(rcls.Params, s.road.params, "road.params", source)
+            seed = s.road.seed if s.road.seed is not None else s.sim.seed
+            dist = float(sp.distance(self.duration)) if sp.const is not None else sp.max_distance
+            rctx = RoadContext(duration=self.duration, distance=dist, wheelbase=P.vcls.wheelbase(P.params[i]),
+                               mean_speed=sp.mean(self.duration), dt=self.dt,
+                               n_tracks=1 + int(max(self.geom.tracks) > 0), tracks=s.road.tracks)
+            self.speeds.append(sp)
+            self.roads.append(rcls(rp, np.random.default_rng([seed, 8608]), rctx))
+        # distance of each axle behind the front axle, per car (cars of an ensemble may differ in a, b)
+        xs = np.asarray([[c.x for c in P.vcls.corners(p)] for p in P.params], dtype=float)
+        self.corner_back = xs.max(axis=1, keepdims=True) - xs  # (n_cars, n_corners)
+
+        # time-varying parameters -----------------------------------------------------------------------
+        self.variations = []
+        self._const_scratch = None  # MjData scratch for mj_setConst when a mass or inertia varies
+        for vi, v in enumerate(sc0.vehicle.variations):
+            fld, idx = P.variation_index(v.param)
+            if fld.startswith("body"):
+                self._const_scratch = mujoco.MjData(m)
+            arr = getattr(m, fld).reshape(-1) if fld == "body_inertia" else getattr(m, fld)
+            nominal = arr[idx].copy()
+            cfgs = [s.vehicle.variations[vi] for s in self.scenarios]
+            self.variations.append((arr, idx, nominal, cfgs))
+
+        # manoeuvre (inertial loads) --------------------------------------------------------------------
+        self.maneuver = None
+        if sc0.vehicle.maneuver is not None:
+            self.maneuver = build_maneuver(self.scenarios, P, source)
+
+        # sensors ---------------------------------------------------------------------------------------
+        sctx = SensorContext(n, self.geom.corner_names, self.geom.suffixes, P.body_joints, self.control_dt)
+        self.sensors: list[SensorChannel] = []
+        for i, scfg in enumerate(sc0.sensors):
+            scls = SENSORS.get(scfg.type, field=f"sensors.{i}.type", source=source)
+            sp_ = stack_params([validate_params(scls.Params, s.sensors[i].params, f"sensors.{i}.params", source)
+                                for s in self.scenarios], nc)
+            rng = PerCarRNG([np.random.default_rng([s.sim.seed, 2631, i]) for s in self.scenarios])
+            self.sensors.append(SensorChannel(scfg, scls(sp_, sctx), self.control_dt, rng))
+
+        # controller ------------------------------------------------------------------------------------
+        ccls = CONTROLLERS.get(sc0.controller.type, field="controller.type", source=source)
+        cp = stack_params([validate_params(ccls.Params, s.controller.params, "controller.params", source)
+                           for s in self.scenarios], nc)
+        vparams = stack_params(P.params, nc)
+        self.full_state = sc0.controller.full_state
+        self.cctx = ControlContext(
+            n_cars=n, corners=self.geom.corner_names, suffixes=self.geom.suffixes, corner_x=self.geom.corner_x,
+            corner_y=self.geom.corner_y, control_dt=self.control_dt, dt=self.dt, vehicle_model=sc0.vehicle.model,
+            vehicle=vparams, sensors={ch.name: ch.sensor.labels() for ch in self.sensors},
+            actuator=sc0.actuator.type, command_unit=acls.command_unit, full_state=self.full_state,
+            static_suspension_force=P.static_susp.copy(), state_widths=self.state_widths(),
+            extra={"actuator_params": ap})  # e.g. the policy controller's default action scale
+        self.controller = ccls(cp, self.cctx)
+
+    def state_widths(self) -> dict:
+        """{"state.<name>": width} of the true plant quantities a full-state controller reads (the order of
+        :func:`~suspension_sim.sensors.base.full_state_readings`)."""
+        if not self.full_state:
+            return {}
+        nb, nc = len(self.plant.body_joints), self.plant.nc
+        out = {}
+        for f in dataclasses.fields(PlantState):
+            if f.name in ("t", "actuator_states", "extra"):
+                continue
+            out[f"state.{f.name}"] = nb if f.name.startswith("body_") else nc
+        for k, v in self.actuator.states().items():
+            out[f"state.actuator.{k}"] = int(np.asarray(v).reshape(self.plant.n, -1).shape[1])
+        return out
+
+    # ------------------------------------------------------------------------------------------------
+    def trapezoidal_refusal(self):
+        """None if the trapezoidal scheme applies to this ensemble, else (short reason, the error's message).
+        Its limits: a model with tires (the SDOF rig's base is a prescribed plate), no time-varying damping,
+        and damping·dt/m_eff <= 1 on every suspension of every car (the body-wheel coupling is taken from the
+        last step, which diverges for stiffer dampers; measured on the quarter car: stable at 2.0, divergent
+        at 3.1)."""
+        P, sc0 = self.plant, self.scenarios[0]
+        if not P.has_tire:
+            return ("model without tires",
+                    f"integrator 'trapezoidal' needs a model with tires ({sc0.vehicle.model!r} has none); "
+                    "use implicitfast or RK4")
+        if any("damping" in v.param for v in sc0.vehicle.variations):
+            return ("time-varying damping",
+                    "integrator 'trapezoidal' does not support time-varying damping; use implicitfast or RK4")
+        ratio = P.susp_c * self.dt / self.tendon_effective_mass(P.susp_t)
+        self._trap_ratio = float(np.max(ratio))
+        if self._trap_ratio > 1.0:
+            return (f"damping*dt/mass = {self._trap_ratio:.3g} > 1",
+                    f"integrator 'trapezoidal' needs damping*dt/mass <= 1 on every suspension (here "
+                    f"{self._trap_ratio:.3g}); use a smaller sim.dt, or implicitfast (any damping)")
+        return None
+
+    def check_trapezoidal(self, source):
+        why_not = self.trapezoidal_refusal()
+        if why_not is not None:
+            raise ScenarioError(why_not[1], source=source, field="sim.integrator")
+
+    def tendon_effective_mass(self, tendons: np.ndarray) -> np.ndarray:
+        """Effective mass 1/(J·M⁻¹·Jᵀ) (kg) along each fixed tendon of ``tendons`` (n_cars, k) at the initial pose,
+        road plates held; inf for a tendon that moves no free dof.  For effects that need it (stick-slip)."""
+        m = self.plant.model
+        if not hasattr(self, "_Mfull"):
+            d = mujoco.MjData(m)
+            mujoco.mj_forward(m, d)
+            self._Mfull = np.zeros((m.nv, m.nv))
+            mujoco.mj_fullM(m, d, self._Mfull)
+            free = set(self.plant.free_v.tolist())
+            self._car_dofs = {}
+            for v in range(m.nv):
+                name = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_JOINT, int(m.dof_jntid[v])) or ""
+                if v in free:
+                    self._car_dofs.setdefault(name.split("/")[0], []).append(v)
+        out = np.full(tendons.shape, np.inf)
+        for i in range(tendons.shape[0]):
+            dofs = np.asarray(self._car_dofs.get(f"car{i}", []), dtype=int)
+            for k, t in enumerate(tendons[i]):
+                J = np.zeros(m.nv)
+                for w in range(m.tendon_adr[t], m.tendon_adr[t] + m.tendon_num[t]):
+                    J[m.jnt_dofadr[m.wrap_objid[w]]] += m.wrap_prm[w]
+                Jf = J[dofs]
+                if dofs.size and np.any(Jf):
+                    out[i, k] = 1.0 / float(Jf @ np.linalg.solve(self._Mfull[np.ix_(dofs, dofs)], Jf))
+        return out
+
+    def road_chunk(self, k0: int, k1: int):
+        """Road height and rate under each wheel for physics steps k0..k1-1: arrays (n, k1-k0, nc)."""
+        n, nc = self.plant.n, self.plant.nc
+        L = k1 - k0
+        t = (np.arange(k0 - 1, k1 + 1)) * self.dt  # one extra sample each side for central differences
+        z = np.empty((n, L + 2, nc))
+        for i, (road, sp) in enumerate(zip(self.roads, self.speeds)):
+            x = sp.distance(t)
+            for c in range(nc):
+                xc = x - self.corner_back[i, c]
+                tc = t if self.corner_back[i, c] == 0 else sp.time_at(xc, t)
+                z[i, :, c] = road.height(tc, xc, self.geom.tracks[c])
+        zd = (z[:, 2:, :] - z[:, :-2, :]) / (2 * self.dt)
+        if self.rk4:  # RK4 also prescribes the plates' acceleration within a step
+            return z[:, 1:-1, :], zd, (z[:, 2:, :] - 2 * z[:, 1:-1, :] + z[:, :-2, :]) / self.dt ** 2
+        return z[:, 1:-1, :], zd
+
+    def apply_variations(self, t: float):
+        for arr, idx, nominal, cfgs in self.variations:
+            vals = np.empty_like(nominal)
+            for i, v in enumerate(cfgs):
+                vals[i] = variation_value(v, t, nominal[i])
+            arr[idx] = vals
+        if self._const_scratch is not None:
+            # MuJoCo precomputes the mass matrix of simple (slide-joint) bodies (dof_M0) in mj_setConst: without
+            # this a mass change would alter gravity but not inertia
+            mujoco.mj_setConst(self.plant.model, self._const_scratch)
+
+    def road_preview(self, t, dist):
+        out = np.empty((self.plant.n, self.plant.nc))
+        # the sensor's stacked parameter: one distance per car ((n_cars, 1)) or a scalar
+        dists = np.broadcast_to(np.asarray(dist, dtype=float).reshape(-1), (self.plant.n,))
+        for i, (road, sp) in enumerate(zip(self.roads, self.speeds)):
+            x = float(sp.distance(t))
+            dist = float(dists[i])
+            for c in range(self.plant.nc):
+                xc = x - self.corner_back[i, c] + dist
+                v = max(float(sp.speed(t)), 1e-9)
+                out[i, c] = road.height(np.array([t + dist / v]), np.array([xc]), self.geom.tracks[c])[0]
+        return out
+
+    def build_corner_jacobian(self):
+        """Rows of each suspension tendon restricted to the body dofs (for corner body kinematics)."""
+        P, m = self.plant, self.plant.model
+        n, nc, nb = P.n, P.nc, len(P.body_joints)
+        Jb = np.zeros((n, nc, nb))
+        for i in range(n):
+            for c in range(nc):
+                ti = P.susp_t[i, c]
+                for w in range(m.tendon_adr[ti], m.tendon_adr[ti] + m.tendon_num[ti]):
+                    dof = m.jnt_dofadr[m.wrap_objid[w]]
+                    hit = np.nonzero(P.body_v[i] == dof)[0]
+                    if hit.size:
+                        Jb[i, c, hit[0]] += m.wrap_prm[w]
+        self.Jb = Jb
+
+    def corner_body_acc(self, acc):
+        """Acceleration of the body point above each corner: J_body · qacc (fixed tendons are linear)."""
+        return np.einsum("ncb,nb->nc", self.Jb, acc[self.plant.body_v])
+
+
+class PerCarRNG:
+    """Noise generator of an ensemble: each car draws from its own stream (seeded by its scenario's
+    ``sim.seed``), so a car's noise, and hence its result, is the same alone and inside any ensemble."""
+
+    BLOCK = 256  # standard normals drawn ahead per car (the same stream as one draw per call, far cheaper)
+
+    def __init__(self, rngs):
+        self.rngs = rngs
+        self._buf: dict = {}
+
+    def normal(self, loc=0.0, scale=1.0, size=None):
+        n = len(self.rngs)
+        if size is None or np.ndim(loc) or np.ndim(scale) or len(tuple(size)) < 1 or tuple(size)[0] != n:
+            if size is None or n == 1:
+                return self.rngs[0].normal(loc, scale, size)
+            return np.stack([g.normal(loc, scale, tuple(size)[1:]) for g in self.rngs])
+        key = tuple(size)[1:]
+        buf, pos = self._buf.get(key, (None, self.BLOCK))
+        if pos == self.BLOCK:
+            buf, pos = np.stack([g.standard_normal((self.BLOCK,) + key) for g in self.rngs]), 0
+        self._buf[key] = (buf, pos + 1)
+        return loc + scale * buf[:, pos]  # = Generator.normal(loc, scale) value by value
+
+    def __getattr__(self, name):  # other draws: the first car's stream (single runs unchanged)
+        return getattr(self.rngs[0], name)
+
+
+def variation_value(v, t: float, nominal):
+    """The value at time ``t`` of a time-varying parameter (``vehicle.variations`` entry ``v``) whose nominal
+    value is ``nominal``."""
+    if v.kind == "step":
+        val = None
+        for ti, vi in zip(v.times, v.values):
+            if t >= ti:
+                val = vi
+        if val is None:
+            return nominal
+    elif v.kind == "ramp":
+        val = float(np.interp(t, v.times, v.values))
+    else:
+        amp, f = v.values[0], v.values[1]
+        ph = v.values[2] if len(v.values) > 2 else 0.0
+        val = amp * np.sin(2 * np.pi * f * t + ph)
+        if v.mode == "scale":
+            return nominal * (1.0 + val)
+    if v.mode == "add":
+        return nominal + val
+    if v.mode == "scale":
+        return nominal * val
+    return np.full_like(nominal, val)
