@@ -1,8 +1,10 @@
 """suspension_sim: an active-suspension testbed on MuJoCo.
 
-Data flows one way: scenario file -> validated config (:mod:`.config`) -> MuJoCo model (:mod:`.plant`)
--> simulation loop (:mod:`.simulation`: road, effects, actuator, sensors, controller) -> log
-(:mod:`.results`) -> metrics, plots, 3D.
+Data flows one way: scenario file -> validated config (:mod:`.config`) -> build (:mod:`.build`: the
+MuJoCo model of :mod:`.plant`, road, effects, actuator, sensors, controller) -> loop (:mod:`.loop`,
+:mod:`.compiled.loop`) -> log (:mod:`.log`) -> metrics and results (:mod:`.metrics`, :mod:`.results`) ->
+outputs (:mod:`.outputs`, plots, report, :mod:`.viewer`); :mod:`.simulation` puts build, loop and log
+together.  ``tests/test_architecture.py`` checks that imports follow these layers.
 """
 import os as _os
 
