@@ -28,8 +28,8 @@ import numpy as np
 # specialisation by the law's type, which holds the identity of the dispatcher object of this process: each
 # new process appends new entries to the cache index instead of reusing the old ones, the index grows without
 # bound, and loading it eventually fails with ``ReferenceError: underlying object has vanished`` (a stale
-# entry pointing at a dispatcher of a dead process).  Compiling four tiny loops costs well under a second
-# per process; the laws they call stay ``cache=True``.
+# entry pointing at a dispatcher of a dead process).  Compiling a broadcaster for a law costs ~0.2 s of CPU,
+# once per law and process (measured for quadratic_damping); the laws they call stay ``cache=True``.
 
 
 @numba.njit(cache=False)  # see above: not cached on disk
