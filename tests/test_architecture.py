@@ -12,7 +12,7 @@ Layers, lowest first (a module may import its own layer or lower ones, never a h
 6 metrics     metrics, results
 7 outputs     outputs, plots, plots_frequency, report, viewer
 8 simulation  simulation (build + run + log)
-9 apps        the package root, batch, envs, cli, commands, diagnose
+9 apps        the package root, batch, envs, rl, cli, commands, diagnose, reproductions
 
 Also: no import cycles (imports inside functions count), no ``from x import _private`` from another module,
 and a private module (``_common.py``) is imported only from inside its own package.  A new module must be
@@ -53,7 +53,8 @@ PACKAGES = {
     "suspension_sim.sensors": COMPONENTS, "suspension_sim.controllers": COMPONENTS,
     "suspension_sim.metrics": METRICS,
     "suspension_sim.viewer": OUTPUTS,
-    "suspension_sim.commands": APPS, "suspension_sim.diagnose": APPS,
+    "suspension_sim.commands": APPS, "suspension_sim.diagnose": APPS, "suspension_sim.reproductions": APPS,
+    "suspension_sim.rl": APPS,
 }
 # (module, private name) imports still to remove: the thesis controllers' ``_f`` goes with their rewrite onto
 # one law each (issue 14, item 1); delete an entry when its import is gone

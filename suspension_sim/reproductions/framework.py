@@ -158,7 +158,7 @@ def rel_change(a: float, b: float, floor: float) -> float:
     return abs(b - a) / max(abs(a), floor, 1e-300)
 
 
-def _md_table(header: list[str], rows: list[list[str]]) -> str:
+def md_table(header: list[str], rows: list[list[str]]) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(str(c).replace("|", "\\|") for c in r) + " |" for r in rows]
     return "\n".join(lines)
@@ -187,7 +187,7 @@ def run_item(item: Item, converge: bool, progress=None) -> dict:
 def item_markdown(source: Source, item: Item, r: dict) -> str:
     out, conv = r["out"], r["conv"]
     md = [f"### {item.title}", "", f"![{item.name}]({item.name}.png)" if out.figure is not None else "", ""]
-    md.append(_md_table(["quantity", "paper", "ours", "verdict", "note"],
+    md.append(md_table(["quantity", "paper", "ours", "verdict", "note"],
                         [[c.quantity, c.paper, c.ours, c.verdict, c.note] for c in out.claims]))
     for t in out.tables:
         md += ["", t]
@@ -195,7 +195,7 @@ def item_markdown(source: Source, item: Item, r: dict) -> str:
         ok = all(c[3] < CONVERGENCE_TOL for c in conv)
         md += ["", f"Step halving: {'converged' if ok else 'NOT converged'} (every key number must change by "
                    f"less than {CONVERGENCE_TOL:.0%} when the physics and control steps are halved).", ""]
-        md.append(_md_table(["key number", "step", "half step", "change"],
+        md.append(md_table(["key number", "step", "half step", "change"],
                             [[k, fmt(a, 4), fmt(b, 4), f"{c * 100:.2f} %"] for k, a, b, c in conv]))
     elif item.converge is False:
         md += ["", "Step halving: not run for this item (see its notes)."]

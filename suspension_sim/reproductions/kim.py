@@ -155,9 +155,9 @@ def kd_claim(ctx) -> ItemOutput:
     fig.tight_layout()
     e_slow = {k: abs(res[f"g1e-10_kd{k}"].ts["ctrl.a2_hat"].iloc[-1] / A2 - 1) for k in (10, 1000)}
     e_fast = {k: abs(res[f"g1e-08_kd{k}"].ts["ctrl.a2_hat"].iloc[-1] / A2 - 1) for k in (10, 1000)}
-    from .framework import _md_table
+    from .framework import md_table
 
-    table = _md_table(["gain (normalised)", "k_d", "â2 error at 1 s", "â2 error at 5 s",
+    table = md_table(["gain (normalised)", "k_d", "â2 error at 1 s", "â2 error at 5 s",
                        "force error, last s", "RMS deflection rate, last s"], rows)
     claims = [
         Claim("estimation error against k_d at the scenarios' gain (1e-8)",

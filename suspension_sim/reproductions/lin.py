@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .framework import SOURCES, Claim, Item, ItemOutput, Source, _md_table
+from .framework import SOURCES, Claim, Item, ItemOutput, Source, md_table
 
 PANELS = (("body_acc", "body acceleration (m/s²)", 1.0), ("body_z", "body travel (m)", 1.0),
           ("travel", "suspension travel (m)", 1.0), ("wheel_z", "wheel travel (m)", 1.0),
@@ -173,7 +173,7 @@ def harshness(ctx) -> ItemOutput:
               f"peak |acc| {lo:.1f}…{hi:.1f} m/s² depending on the phase of the samples", "n.a.",
               "a plot of 100 points per second can miss the spike"),
     ]
-    table = _md_table(["filter constants", "peak body acc (m/s²)", "time above 15 m/s² (ms)", "body rise (cm)",
+    table = md_table(["filter constants", "peak body acc (m/s²)", "time above 15 m/s² (ms)", "body rise (cm)",
                        "peak travel (cm)", "peak P_L (Pa)"], rows)
     notes = ["Mechanism: α1 = −c1·z1 − (ε + ε1·φ(η))·η. When |η| passes m1 the term ε1·φ·η (φ = ((|η| − m1)/m2)⁴) "
              "asks for a body velocity of ≈ 0.4 m/s within a few milliseconds (φ ≈ 4 at the 6.2 cm peak travel); "
@@ -317,7 +317,7 @@ def table1(ctx) -> ItemOutput:
     ax.set_xlabel("ΔJ = change of RMS body acc 0.5–1.5 s (%); bar colour = the paper's verdict")
     ax.set_title("Lin & Kanellakopoulos Table 1 (non-adaptive, one value wrong at a time)", fontsize=9)
     fig.tight_layout()
-    table = _md_table(["parameter", "error", "paper", "ours", "ΔJ", "peak travel (cm)", "agree"], rows)
+    table = md_table(["parameter", "error", "paper", "ours", "ΔJ", "peak travel (cm)", "agree"], rows)
     notes = [f"J0 = {m0['J']:.2f} m/s² (RMS body acceleration 0.5–1.5 s, correct values), peak travel "
              f"{m0['travel'] * 100:.2f} cm. " + classify.__doc__.replace("\n    ", " ")]
     return ItemOutput(claims, key=key, figure=fig, notes=notes, tables=[table])
