@@ -289,7 +289,7 @@ def _road_from_sim(road, model="quarter_car", speed=10.0, duration=3.0, vehicle_
     sc = parse_scenario({"vehicle": {"model": model, "params": vehicle_params or {}},
                          "road": {**road, "speed": speed}, "sim": {"duration": duration}})
     sim = Simulation([sc])
-    z, zd = sim._road_chunk(0, sim.n_steps)[:2]
+    z, zd = sim.road_chunk(0, sim.n_steps)[:2]
     return sim, np.arange(sim.n_steps) * sim.dt, z[0], zd[0]
 
 
