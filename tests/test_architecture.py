@@ -59,9 +59,6 @@ PACKAGES = {
     "suspension_sim.commands": APPS, "suspension_sim.diagnose": APPS, "suspension_sim.reproductions": APPS,
     "suspension_sim.rl": APPS,
 }
-# (module, private name) imports still to remove: the thesis controllers' ``_f`` goes with their rewrite onto
-# one law each (issue 14, item 1); delete an entry when its import is gone
-KNOWN_PRIVATE = {("suspension_sim.controllers.thesis_common", "_f")}
 # import cycles still to cut (sorted module lists): diagnose's data checks (plausibility) build a calibration
 # Problem, whose module imports io, which runs the data checks (all three imports but one inside functions)
 KNOWN_CYCLES = [["suspension_sim.diagnose.calibrate", "suspension_sim.diagnose.io", "suspension_sim.diagnose.plausibility"]]
@@ -168,8 +165,7 @@ def find_cycles(graph: dict) -> list:
     return out
 
 
-def check(sources: dict, modules_map: dict, packages_map: dict, top: str, known_private=frozenset(),
-          known_cycles=()) -> list[str]:
+def check(sources: dict, modules_map: dict, packages_map: dict, top: str, known_cycles=()) -> list[str]:
     """Every breach of the rules, one line each."""
     modules = discover(sources)
     problems = []
@@ -190,7 +186,7 @@ def check(sources: dict, modules_map: dict, packages_map: dict, top: str, known_
             if tl is not None and tl > layer:
                 problems.append(f"{name}:{line}: layer {LAYER_NAMES[layer]} imports {mod} of the higher layer "
                                 f"{LAYER_NAMES[tl]}")
-            priv = [n for n in (names or []) if is_private(n) and (mod, n) not in known_private]
+            priv = [n for n in (names or []) if is_private(n)]
             if priv and mod != name:
                 problems.append(f"{name}:{line}: imports private {priv} from {mod}")
             leaf = mod.rpartition(".")[2]
@@ -206,7 +202,7 @@ def check(sources: dict, modules_map: dict, packages_map: dict, top: str, known_
 
 
 def test_the_package_imports_one_way():
-    problems = check(SOURCES, MODULES, PACKAGES, "suspension_sim", KNOWN_PRIVATE, KNOWN_CYCLES)
+    problems = check(SOURCES, MODULES, PACKAGES, "suspension_sim", KNOWN_CYCLES)
     assert not problems, "\n".join(problems)
 
 
