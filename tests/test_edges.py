@@ -180,7 +180,7 @@ def test_nan_divergence_names_the_non_finite_state():
 
     class Sim:
         plant = P()
-        _last_forces = (np.array([[np.nan]]), np.array([[0.0]]), np.array([[np.inf]]))
+        last_forces = (np.array([[np.nan]]), np.array([[0.0]]), np.array([[np.inf]]))
 
     st = nonfinite_state(Sim(), "ctrl")
     assert np.isnan(st["actuator_force"]) and st["tire_effect_force"] == np.inf and st["mujoco_bad_value_in"] == "ctrl"
