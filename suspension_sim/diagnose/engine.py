@@ -325,7 +325,7 @@ class Engine:
             return (np.ascontiguousarray(np.broadcast_to(z[None], (n,) + z.shape)),
                     np.ascontiguousarray(np.broadcast_to(zd[None], (n,) + zd.shape)))
 
-        sim._road_chunk = chunk
+        sim.road_chunk = chunk  # the loops read the road through System.road_chunk
 
     # --------------------------------------------------------------------------------------------------
     def run(self, psets: list[dict], n_samples: int | None = None, effects: list | None = None) -> np.ndarray:

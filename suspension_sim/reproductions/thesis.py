@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .framework import SOURCES, Claim, Item, ItemOutput, Source, _md_table
+from .framework import SOURCES, Claim, Item, ItemOutput, Source, md_table
 
 G = 9.81
 
