@@ -86,10 +86,11 @@ def run(
 
     from .outdir import prepare
     from .outputs import write_result
-    from .preflight import build
+    from .preflight import build, check_disk
 
     def go():
         sc, sims = build(scenario, set_ or [])  # every pre-run check, for every variant, before any step
+        check_disk(sims, out if out else Path("runs"), sc.outputs.timeseries, str(scenario))
         folder = prepare(out, overwrite) if out else default_out(sc.name)
         results, diverged = {}, []
         with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),

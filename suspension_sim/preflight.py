@@ -35,6 +35,28 @@ def check_log_memory(sim, source: str | None = None) -> None:
                  what=f"the run's log ({n_log} instants; a larger sim.log_dt makes it smaller) in GB")
 
 
+def check_disk(sims, target: Path, timeseries: bool = True, source: str | None = None) -> None:
+    """Refuse a run whose time series would not fit on the disk that holds ``target`` (the run folder, which
+    need not exist yet): the estimate is the uncompressed log (instants × channels × 8 bytes per variant),
+    an upper bound of the Parquet file for noisy signals, against the free space, before any step."""
+    import shutil
+
+    from .simulation import n_log_samples
+
+    if not timeseries or not sims:
+        return
+    need = sum(n_log_samples(sim.n_steps, sim.log_every) * sim.plant.n * (log_channels_estimate(sim) + 1) * 8
+               for _, sim in sims)
+    place = Path(target).absolute()
+    while not place.exists() and place.parent != place:
+        place = place.parent
+    free = shutil.disk_usage(place).free
+    if need > free:
+        raise ScenarioError(f"the run's time series (~{need / 1e9:.3g} GB) would not fit on the disk at {place} "
+                            f"({free / 1e9:.3g} GB free); use a larger sim.log_dt, a shorter sim.duration, or "
+                            "outputs.timeseries: false", source=source, field="sim.duration")
+
+
 def build(scenario: str | Path, overrides: list[str] | None = None):
     """(scenario, [(variant name, Simulation), ...]) with every pre-run check done; nothing is stepped."""
     from .config import load_scenario
@@ -58,4 +80,4 @@ def build(scenario: str | Path, overrides: list[str] | None = None):
     return sc, sims
 
 
-__all__ = ["build", "check_log_memory", "log_channels_estimate", "ScenarioError"]
+__all__ = ["build", "check_disk", "check_log_memory", "log_channels_estimate", "ScenarioError"]
