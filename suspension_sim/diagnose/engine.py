@@ -216,6 +216,7 @@ class Engine:
             "scratch": mujoco.MjData(m),
             "n_samples": n_samples,
         }
+        sim._diag["J"], sim._diag["g0"] = _tendon_jacobian(m), _gravity(m, sim._diag["scratch"])
         self._sims[key] = sim
         return sim
 
@@ -247,8 +248,24 @@ class Engine:
             if fld == "tendon_damping" and sim.trap:
                 new = 0.5 * new  # MuJoCo holds half of each linear damper with the trapezoidal scheme
             flat[idx] = new
+        self._sag = None
         if mass_changed:
             mujoco.mj_setConst(m, D["scratch"])
+            # a changed mass is not re-levelled in the world (the car sags), but a run starting at rest at the
+            # old ride height would drop at t = 0 and ring: the model is re-levelled (q = 0 is its new
+            # equilibrium) and the static sag K⁻¹·Δg is added to the position outputs instead
+            J = D["J"]
+            dg = _gravity(m, D["scratch"]) - D["g0"]
+            free = P.free_v
+            K = (J.T * m.tendon_stiffness) @ J
+            q = np.zeros(m.nv)
+            q[free] = np.linalg.solve(K[np.ix_(free, free)], dg[free])
+            dl = J @ q
+            m.tendon_lengthspring[:, 0] -= dl
+            m.tendon_lengthspring[:, 1] -= dl
+            self._sag = {"body": q[P.body_v], "wheel": q[P.wheel_v] if P.has_tire else None,
+                         "travel": dl[P.susp_t],
+                         "tire": (-m.tendon_stiffness[P.tire_t] * dl[P.tire_t]) if P.has_tire else None}
         # the plant's and the simulation's copies of the linear rates
         f = 2.0 if sim.trap else 1.0
         P.susp_c = f * m.tendon_damping[P.susp_t]
@@ -377,9 +394,34 @@ class Engine:
                     out[:, :L, idx[j]] = g(j)
                     out[:, :L, idx[f"{j}_rate"]] = g(f"{j}_rate")
                     out[:, :L, idx[f"{j}_acc"]] = g(f"{j}_acc")
+        if self._sag is not None:
+            self._add_sag(out, psets)
         if L < n_samples:
             out[:, L:, :] = out[:, L - 1:L, :]
         return out
+
+    def _add_sag(self, out, psets):
+        sg = self._sag
+        joints = list(self.vcls.body_joints)
+        if self.kind == "sdof":
+            out[:, :, self.channels.index("pos")] += sg["body"][:, 0][:, None]
+            return
+        idx = {c: j for j, c in enumerate(self.channels)}
+        zb = sg["body"][:, joints.index("body_z")]
+        pb = sg["body"][:, joints.index("pitch")] if "pitch" in joints else 0.0 * zb
+        rb = sg["body"][:, joints.index("roll")] if "roll" in joints else 0.0 * zb
+        for ci, corner in enumerate(self.corners):
+            sfx = corner.suffix
+            x = np.array([self._corner_xy(Pd, ci)[0] for Pd in psets])
+            y = np.array([self._corner_xy(Pd, ci)[1] for Pd in psets])
+            out[:, :, idx[f"body_pos{sfx}"]] += (zb - x * pb + y * rb)[:, None]
+            out[:, :, idx[f"susp_travel{sfx}"]] += sg["travel"][:, ci][:, None]
+            if sg["wheel"] is not None:
+                out[:, :, idx[f"wheel_pos{sfx}"]] += sg["wheel"][:, ci][:, None]
+                out[:, :, idx[f"tire_force{sfx}"]] += sg["tire"][:, ci][:, None]
+        for j, nm in (("pitch", pb), ("roll", rb)):
+            if j in idx:
+                out[:, :, idx[j]] += nm[:, None]
 
     def _corner_xy(self, Pd, ci):
         if not (set(Pd) & (set(self.vcls.Params.model_fields) - self.writable)):
@@ -428,6 +470,27 @@ def _series(kernel, s, v, dt, p, st, out):
     for k in range(s.shape[0]):
         for i in range(p.shape[0]):
             out[i, k] += kernel(s[k], v[k], k * dt, dt, p[i, 0], st[i, 0])
+
+
+def _tendon_jacobian(m) -> np.ndarray:
+    """(ntendon, nv) coefficients of the fixed tendons."""
+    import mujoco
+
+    J = np.zeros((m.ntendon, m.nv))
+    for i in range(m.ntendon):
+        for j in range(m.tendon_adr[i], m.tendon_adr[i] + m.tendon_num[i]):
+            if m.wrap_type[j] == mujoco.mjtWrap.mjWRAP_JOINT:
+                J[i, m.jnt_dofadr[m.wrap_objid[j]]] += m.wrap_prm[j]
+    return J
+
+
+def _gravity(m, d) -> np.ndarray:
+    """Generalized gravity force at q = 0, v = 0."""
+    import mujoco
+
+    mujoco.mj_resetData(m, d)
+    mujoco.mj_forward(m, d)
+    return -d.qfrc_bias.copy()
 
 
 def declared_effects() -> dict:
