@@ -144,3 +144,20 @@ def test_reproduce_thesis(tmp_path):
     assert k6["random_acc"] > 2.0 * 0.47  # body acceleration ≈ 4× passive on the random road (not reproduced)
     for item in ("ch3_load_step", "ch6"):
         assert all(c["converged"] for c in s[item]["convergence"].values()), item
+
+
+def test_run_keeps_each_scenarios_sensor_noise():
+    """Scenarios that differ only in sensor noise must not share an ensemble (the loop takes the sensor
+    pipeline from the first car): the noisy run equals the same scenario run alone, and differs from the
+    clean one."""
+    from suspension_sim.simulation import Simulation
+
+    ctx = fw.Context()
+    clean = ctx.variants("quickstart", ["sim.duration=0.3"], only=["skyhook"])["skyhook"]
+    noisy = clean.model_copy(deep=True)
+    for s in noisy.sensors:
+        s.noise_std = 0.5
+    res = ctx.run({"clean": clean, "noisy": noisy})
+    alone = Simulation([noisy]).run()[0]
+    np.testing.assert_allclose(res["noisy"].ts.body_acc, alone.ts.body_acc, rtol=0, atol=1e-12)
+    assert np.abs(res["noisy"].ts.body_acc - res["clean"].ts.body_acc).max() > 1e-3

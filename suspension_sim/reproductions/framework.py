@@ -135,12 +135,14 @@ class Context:
         return out
 
     def run(self, scenarios: dict, label: str = "") -> dict:
-        """Run ``{label: Scenario}``; structurally equal scenarios run as one ensemble."""
-        from ..simulation import Simulation, structure_key
+        """Run ``{label: Scenario}``; scenarios that can share an ensemble (:func:`..batch.ensemble_key`:
+        the structure plus everything the loop takes from the first car, e.g. the sensor noise) run as one."""
+        from ..batch import ensemble_key
+        from ..simulation import Simulation
 
         groups: dict = {}
         for name, v in scenarios.items():
-            groups.setdefault(structure_key(v), []).append((name, v))
+            groups.setdefault(ensemble_key(v), []).append((name, v))
         out = {}
         for k, members in enumerate(groups.values()):
             text = f"{label} ({', '.join(n for n, _ in members)})"
