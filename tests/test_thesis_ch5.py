@@ -96,3 +96,7 @@ def test_fixed_gain_soc_goes_unstable_rescheduled_and_mrac_do_not(varying):
     # the MRAC keeps its level through the load and the stiffness change
     assert abs(np.mean(win("mrac", "body_z"))) < 0.05
     assert abs(np.mean(win("mrac", "body_z", 9.0, 12.0))) < 0.05  # under load and with the soft spring
+    # … which the passive car fails: it sags under the load with the softened spring (≈ 0.39 m + the lost
+    # K·δ_st share) and still sits low once the load is gone
+    assert np.mean(win("passive", "body_z", 9.0, 12.0)) < -0.2
+    assert np.mean(win("passive", "body_z")) < -0.05
