@@ -277,7 +277,7 @@ def ch5(ctx) -> ItemOutput:
               f"level 45–60 s {mz * 100:.1f} cm", "reproduced" if sat["mrac"] < 0.01 and abs(mz) < 0.03 else "not",
               "`mrac` with our θ_d and P1 additions"),
     ]
-    table = _md_table(["nominal", *[f"acc PSD {lo}–{hi} Hz" for lo, hi in bands], "rattle RMS (mm)",
+    table = md_table(["nominal", *[f"acc PSD {lo}–{hi} Hz" for lo, hi in bands], "rattle RMS (mm)",
                        "⟨|F·ż|⟩ (W)"], rows)
     key = {"mrac_psd_res": (psd["mrac"][1], 1e-4), "soc_psd_res": (psd["soc"][1], 1e-4),
            "soc_rattle": (psd["soc_r"], 1e-3), "mrac_power": (psd["mrac_p"], 10.0), "soc_power": (psd["soc_p"], 10.0)}
@@ -341,7 +341,7 @@ def ch6(ctx) -> ItemOutput:
     ax[1].set_xlabel("time (s)")
     fig.suptitle("Thesis Ch. 6: 2-DOF bounce model, MDOF adaptive control (Figs. 6.8–6.11)", fontsize=9)
     fig.tight_layout()
-    table = _md_table(["road", "quantity (RMS, mm)", "reference", "adaptive", "non-adaptive (α = β = 0)", "passive"],
+    table = md_table(["road", "quantity (RMS, mm)", "reference", "adaptive", "non-adaptive (α = β = 0)", "passive"],
                       rows)
     notes = [HALF_NOTE, "Errors are RMS(travel − reference travel) after 0.5 s; the non-adaptive run keeps the "
              "nominal feedforward and feedback gains (adaptation off). Not built: the sine (Excitation mode I) and "
