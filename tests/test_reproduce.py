@@ -161,3 +161,14 @@ def test_run_keeps_each_scenarios_sensor_noise():
     alone = Simulation([noisy]).run()[0]
     np.testing.assert_allclose(res["noisy"].ts.body_acc, alone.ts.body_acc, rtol=0, atol=1e-12)
     assert np.abs(res["noisy"].ts.body_acc - res["clean"].ts.body_acc).max() > 1e-3
+
+
+@pytest.mark.slow
+def test_reproduce_fallah(tmp_path):
+    r = runner.invoke(app, ["reproduce", "fallah", "--out", str(tmp_path), "-q"])
+    assert r.exit_code == 0, r.output
+    s = json.loads((tmp_path / "fallah" / "summary.json").read_text())
+    dlc = {c["quantity"].split(",")[0]: c["verdict"] for c in s["dlc"]["claims"]}
+    assert any(v == "not" for k, v in dlc.items() if "total lateral" in k)
+    for item in ("bump", "dlc", "bang_bang"):
+        assert (tmp_path / "fallah" / f"{item}.png").stat().st_size < 150_000
