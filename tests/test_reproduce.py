@@ -172,3 +172,14 @@ def test_reproduce_fallah(tmp_path):
     assert any(v == "not" for k, v in dlc.items() if "total lateral" in k)
     for item in ("bump", "dlc", "bang_bang"):
         assert (tmp_path / "fallah" / f"{item}.png").stat().st_size < 150_000
+
+
+@pytest.mark.slow
+def test_reproduce_toscano(tmp_path):
+    r = runner.invoke(app, ["reproduce", "toscano", "--out", str(tmp_path), "-q"])
+    assert r.exit_code == 0, r.output
+    s = json.loads((tmp_path / "toscano" / "summary.json").read_text())
+    assert s["constant"]["convergence"]["fk_mean"]["converged"]
+    assert s["varying"]["claims"][0]["verdict"] in ("partly", "not")
+    for item in ("constant", "varying"):
+        assert (tmp_path / "toscano" / f"{item}.png").stat().st_size < 150_000

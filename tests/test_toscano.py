@@ -161,3 +161,49 @@ def test_varying_stiffness_effect_keeps_the_static_load():
     for t, s in ((0.3, 0.02), (1.1, -0.01), (2.0, 0.0)):
         F = e.force(np.full((1, 1), s), z, t, 5e-4)[0, 0]
         assert F == pytest.approx(-5000.0 * np.sin(3 * t) * s, rel=1e-12, abs=1e-12)
+
+
+def _controlled(name, duration, sets):
+    path = str(SCENARIOS / name)
+    sc = load_scenario(path, overrides=[f"sim.duration={duration}"] + sets)
+    return dict(sc.expand(path))["controlled"]
+
+
+def test_adaptation_is_what_makes_the_reference_followed(constant):
+    """From the same initial estimates (β̂ = 0: f̂_k = f̂_b = 0, −100 %), the adaptive law meets the bounds
+    (estimates within 5 %, NRMSE body displacement to the reference < 0.1; measured 0.02) and the same law
+    with the adaptation switched off (λ = 0) fails both."""
+    path = str(SCENARIOS / "toscano_constant.yaml")
+    frozen = Simulation([_controlled("toscano_constant.yaml", 8.0, ["controller.params.lambda_k=0",
+                                                                     "controller.params.lambda_b=0"])], path).run()[0]
+    ref = constant["reference"].ts
+
+    def passes(ts):
+        last = ts[ts.t > ts.t.iloc[-1] - 3.0]
+        return (abs(last["ctrl.fk_hat"].mean() / 15000.0 - 1) < 0.05
+                and abs(last["ctrl.fb_hat"].mean() / 1500.0 - 1) < 0.05
+                and _nrmse(ts.body_z, ref.body_z) < 0.1)
+
+    assert passes(constant["controlled"].ts)
+    assert not passes(frozen.ts)
+    assert _nrmse(frozen.ts.body_z, ref.body_z) > 0.1
+
+
+def test_varying_tracking_beats_the_best_frozen_estimate(varying):
+    """Time-varying k_M(t), b_M(t): the adaptive estimates' RMS error over the last 4 s is below 0.8× the
+    variation's RMS (measured 0.58 and 0.44, the page explains why not less); the non-adaptive law frozen at
+    the true mean values (15000, 1500: the best constant) has an error equal to the variation (1.0×) and fails."""
+    path = str(SCENARIOS / "toscano_varying.yaml")
+    frozen = Simulation([_controlled("toscano_varying.yaml", 8.0, [
+        "controller.params.lambda_k=0", "controller.params.lambda_b=0",
+        "controller.params.beta_k0=15000", "controller.params.beta_b0=1500"])], path).run()[0]
+
+    def ratios(ts):
+        last = ts[ts.t > ts.t.iloc[-1] - 4.0]
+        k_true = 15000.0 + 5000.0 * np.sin(3.0 * last.t)
+        b_true = 1500.0 + 500.0 * np.sin(4.0 * last.t)
+        return (_rms(last["ctrl.fk_hat"] - k_true) / _rms(k_true - 15000.0),
+                _rms(last["ctrl.fb_hat"] - b_true) / _rms(b_true - 1500.0))
+
+    assert max(ratios(varying["controlled"].ts)) < 0.8
+    assert min(ratios(frozen.ts)) > 0.8

@@ -1,0 +1,167 @@
+"""Toscano & Dumas: fuzzy adaptive compensation with an electromagnetic actuator, constant (Figs. 6–8) and
+time-varying (Figs. 9–11) suspension parameters (page: docs/reproductions/toscano_dumas.md).
+
+Scenarios ``toscano_constant`` and ``toscano_varying``: the controller (the paper's law, two-rule triangular
+approximators (33)) starts from β̂ = 0, i.e. f̂_k = f̂_b = 0 (−100 %; the paper does not state its initial
+values), beside the uncontrolled car and the reference car (k = 10000 N/m, b = 1000 N·s/m).  Estimate errors are
+RMS over the last 4 s of the 10 s runs, against the truth at that instant.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .framework import SOURCES, Claim, Item, ItemOutput, Source, md_table
+
+K0, B0, DK, DB, WK, WB = 15000.0, 1500.0, 5000.0, 500.0, 3.0, 4.0
+
+
+def rms(x):
+    x = np.asarray(x, float)
+    return float(np.sqrt(np.mean(x * x)))
+
+
+def nrmse(a, ref):
+    return rms(np.asarray(a) - np.asarray(ref)) / rms(ref)
+
+
+def est_errors(ts, wk, wb, dk=DK, db=DB, window=4.0):
+    last = ts.t.to_numpy() > ts.t.iloc[-1] - window
+    t = ts.t.to_numpy()[last]
+    kt = K0 + (dk * np.sin(wk * t) if wk else 0 * t)
+    bt = B0 + (db * np.sin(wb * t) if wb else 0 * t)
+    return rms(ts["ctrl.fk_hat"].to_numpy()[last] - kt), rms(ts["ctrl.fb_hat"].to_numpy()[last] - bt)
+
+
+def _figure(res, title, kt, bt):
+    import matplotlib.pyplot as plt
+
+    C, U, R = res["controlled"].ts, res["uncontrolled"].ts, res["reference"].ts
+    fig, ax = plt.subplots(3, 2, figsize=(9, 6.5), sharex=True)
+    ax[0, 0].plot(C.t, C["ctrl.fk_hat"], "r-", lw=0.8, label="f̂_k")
+    ax[0, 0].plot(C.t, kt(C.t.to_numpy()), "k--", lw=0.8, label="k_M")
+    ax[0, 0].set_ylabel("stiffness (N/m)", fontsize=8)
+    ax[0, 0].legend(fontsize=7)
+    ax[0, 1].plot(C.t, C["ctrl.fb_hat"], "r-", lw=0.8, label="f̂_b")
+    ax[0, 1].plot(C.t, bt(C.t.to_numpy()), "k--", lw=0.8, label="b_M")
+    ax[0, 1].set_ylabel("damping (N·s/m)", fontsize=8)
+    ax[0, 1].legend(fontsize=7)
+    ax[1, 0].plot(C.t, C["ctrl.v_err"], "r-", lw=0.6)
+    ax[1, 0].set_ylabel("ṽ_M (m/s)", fontsize=8)
+    ax[1, 1].plot(C.t, C["command"], "r-", lw=0.6, label="command")
+    ax[1, 1].plot(C.t, C["actuator_force"], "b:", lw=0.6, label="force")
+    ax[1, 1].set_ylabel("F_m (N)", fontsize=8)
+    ax[1, 1].legend(fontsize=7)
+    for a, q in ((ax[2, 0], "body_z"), (ax[2, 1], "body_vel")):
+        a.plot(R.t, R[q], "k-", lw=0.8, label="reference")
+        a.plot(C.t, C[q], "r--", lw=0.8, label="controlled")
+        a.plot(U.t, U[q], "g:", lw=0.8, label="uncontrolled")
+        a.set_ylabel(q, fontsize=8)
+        a.set_xlabel("time (s)")
+    ax[2, 0].legend(fontsize=7)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def _tracking(res):
+    C, U, R = res["controlled"].ts, res["uncontrolled"].ts, res["reference"].ts
+    return {q: (nrmse(C[q], R[q]), nrmse(U[q], R[q])) for q in ("body_z", "body_vel", "travel")}
+
+
+def constant(ctx) -> ItemOutput:
+    res = ctx.run_scenario("toscano_constant")
+    C = res["controlled"].ts
+    last = C.t > C.t.iloc[-1] - 3.0
+    fk, fb = float(C["ctrl.fk_hat"][last].mean()), float(C["ctrl.fb_hat"][last].mean())
+    ek, eb = est_errors(C, 0, 0)
+    tr = _tracking(res)
+    claims = [
+        Claim("estimates (Fig. 6), from f̂_k = f̂_b = 0", "converge to k_M = 15000 N/m, b_M = 1500 N·s/m",
+              f"mean of the last 3 s: {fk:.0f} N/m ({fk / K0 - 1:+.1%}), {fb:.0f} N·s/m ({fb / B0 - 1:+.1%}); "
+              f"instantaneous RMS error {ek:.0f} N/m, {eb:.0f} N·s/m",
+              "reproduced" if abs(fk / K0 - 1) < 0.05 and abs(fb / B0 - 1) < 0.05 else "not",
+              "the instantaneous f̂_k(Δx) wanders with Δx (two rules, β̂¹ ≠ β̂²)"),
+        Claim("controlled car follows the reference (Fig. 8), NRMSE", "behaves as the reference model",
+              f"body z {tr['body_z'][0]:.3f} (uncontrolled {tr['body_z'][1]:.3f}), body v {tr['body_vel'][0]:.3f} "
+              f"({tr['body_vel'][1]:.3f}), travel {tr['travel'][0]:.3f} ({tr['travel'][1]:.3f})",
+              "reproduced" if tr["body_z"][0] < 0.2 * tr["body_z"][1] else "partly"),
+    ]
+    fig = _figure(res, "Toscano & Dumas: constant k_M, b_M, estimates from 0 (cf. Figs. 6–8)",
+                  lambda t: K0 + 0 * t, lambda t: B0 + 0 * t)
+    key = {"fk_mean": (fk, 1000.0), "fb_mean": (fb, 100.0), "nrmse_body_z": (tr["body_z"][0], 0.05)}
+    return ItemOutput(claims, key=key, figure=fig)
+
+
+STUDY = {  # label: (overrides, ω_k or None, ω_b or None)
+    "paper's variation (3, 4 rad/s)": ([], WK, WB),
+    "k_M(t) only": (["vehicle.variations=[]"], WK, None),
+    "b_M(t) only": (["vehicle.effects=[]"], None, WB),
+    "10× slower (0.3, 0.4 rad/s)": ([f"vehicle.effects=[{{type: varying_stiffness, params: {{amplitude: 5000, frequency: {0.3 / 2 / np.pi}}}}}]",
+                                     f"vehicle.variations=[{{param: damping, kind: sine, mode: add, values: [500, {0.4 / 2 / np.pi}, 0]}}]"], 0.3, 0.4),
+    "λ ×3": (["controller.params.lambda_k=3e12", "controller.params.lambda_b=3e10"], WK, WB),
+    "λ ×10, α = 1000, load cell": (["controller.params.lambda_k=5e13", "controller.params.lambda_b=5e11",
+                                    "controller.params.alpha=1000", "controller.params.force_sensor=force",
+                                    "sensors=[{name: travel, type: travel}, {name: travel_rate, type: travel_rate}, "
+                                    "{name: corner_body_vel, type: corner_body_vel}, {name: force, type: actuator_force}]"], WK, WB),
+    "road ×2 (more excitation)": (["road.params.amplitudes=[0.04, 0.02, 0.01, 0.004]"], WK, WB),
+}
+
+
+def varying(ctx) -> ItemOutput:
+    base = ctx.variants("toscano_varying")
+    runs = dict(base)
+    for lab, (sets, _, _) in STUDY.items():
+        if sets:
+            runs[lab] = ctx.variants("toscano_varying", sets, only=["controlled"])["controlled"]
+    runs["reference road ×2"] = ctx.variants("toscano_varying", STUDY["road ×2 (more excitation)"][0],
+                                             only=["reference"])["reference"]
+    res = ctx.run(runs, label="toscano_varying")
+    C = res["controlled"].ts
+    ek, eb = est_errors(C, WK, WB)
+    vk, vb = DK / np.sqrt(2), DB / np.sqrt(2)
+    tr = _tracking(res)
+    rows = []
+    for lab, (sets, wk, wb) in STUDY.items():
+        r = res[lab if sets else "controlled"].ts
+        e1, e2 = est_errors(r, wk, wb, DK if wk else 0, DB if wb else 0)
+        ref = res["reference road ×2" if "road" in lab else "reference"].ts
+        rows.append([lab, f"{e1:.0f} N/m ({e1 / vk:.2f})", f"{e2:.0f} N·s/m ({e2 / vb:.2f})",
+                     f"{nrmse(r.body_z, ref.body_z):.3f}", f"{nrmse(r.body_vel, ref.body_vel):.3f}"])
+    # the constant-parameter floor: same controller, constant k_M, b_M
+    cst = ctx.run({"constant": ctx.variants("toscano_constant", only=["controlled"])["controlled"]}, label="floor")
+    f1, f2 = est_errors(cst["constant"].ts, 0, 0)
+    rows.append(["constant k_M, b_M (floor)", f"{f1:.0f} N/m ({f1 / vk:.2f})", f"{f2:.0f} N·s/m ({f2 / vb:.2f})", "—", "—"])
+    table = md_table(["case", "f̂_k error (÷ variation RMS 3536)", "f̂_b error (÷ 354)", "NRMSE body z", "NRMSE body v"], rows)
+    claims = [
+        Claim("estimates follow k_M(t), b_M(t) (Fig. 9), from 0", "\"convergence towards the expressions of b_M(t) and k_M(t)\"",
+              f"RMS error {ek:.0f} N/m ({ek / vk:.0%} of the variation's RMS), {eb:.0f} N·s/m ({eb / vb:.0%})",
+              "partly" if ek < vk and eb < vb else "not",
+              "follows with a lag and a floor; see the study table"),
+        Claim("estimation error ṽ → 0 (Fig. 10)", "converges to zero",
+              f"RMS ṽ last 4 s {rms(C['ctrl.v_err'][C.t > C.t.iloc[-1] - 4]) * 1000:.2f} mm/s "
+              f"(body velocity {rms(C.body_vel) * 1000:.0f} mm/s)", "reproduced"),
+        Claim("car follows the reference, independent of the variation (Fig. 11), NRMSE",
+              "behaves as the reference model",
+              f"body z {tr['body_z'][0]:.3f} (uncontrolled {tr['body_z'][1]:.3f}), body v {tr['body_vel'][0]:.3f} "
+              f"({tr['body_vel'][1]:.3f})", "reproduced" if tr["body_z"][0] < 0.3 * tr["body_z"][1] else "partly"),
+    ]
+    notes = ["Why the estimates miss by about half the variation while the car still follows the reference: the "
+             "gradient law (27) only needs θ̃ᵀφ = (f_k − f̂_k)Δx + (f_b − f̂_b)Δv small, not θ̃.  The rows above "
+             "separate the causes: a floor present with constant parameters (f̂_k(Δx) wanders with Δx, β̂¹ ≠ "
+             "β̂²); cross-talk (k_M(t) alone or b_M(t) alone leaves errors in both estimates, since k(t)·Δx(t) "
+             "has components a constant damping term can absorb); and a lag that shrinks for a 10× slower "
+             "variation.  Raising the gain tightens the reference tracking but not the estimates, and more "
+             "excitation (road ×2) does not help either: the two-rule, 4-parameter model cannot separate a "
+             "3 rad/s stiffness variation from damping on this road.  The paper shows curves only, so this is "
+             "recorded as partly reproduced, not as a contradiction."]
+    fig = _figure(res, "Toscano & Dumas: k_M = 15000 + 5000 sin 3t, b_M = 1500 + 500 sin 4t, estimates from 0 (cf. Figs. 9–11)",
+                  lambda t: K0 + DK * np.sin(WK * t), lambda t: B0 + DB * np.sin(WB * t))
+    key = {"fk_error": (ek, 500.0), "fb_error": (eb, 50.0), "nrmse_body_z": (tr["body_z"][0], 0.05)}
+    return ItemOutput(claims, key=key, figure=fig, notes=notes, tables=[table])
+
+
+SOURCES.register("toscano")(Source(
+    "toscano", "Toscano & Dumas: continuous nonlinear adaptive control of an active vehicle suspension",
+    "docs/reproductions/toscano_dumas.md",
+    [Item("constant", "Figs. 6–8: constant k_M, b_M", constant),
+     Item("varying", "Figs. 9–11: time-varying k_M(t), b_M(t)", varying)]))
