@@ -143,19 +143,17 @@ def _sensor_code(sc: int, field: int, simple: bool) -> str:
             f"{ind}    ring[i, {sc}, sens_tmp[{sc}, 0], q] = {val}\n"
             f"{ind}if sens_tmp[{sc}, 2]:\n"
             f"{ind}    for q in range(sens_k[{sc}]):\n"
-            f"{ind}        val = ring[i, {sc}, sens_tmp[{sc}, 1], q] + sens_bias[{sc}]\n"
-            f"{ind}        if sens_std[{sc}] > 0:\n"
-            f"{ind}            val = val + noise[i, sens_tmp[{sc}, 3] + q]\n"
-            f"{ind}        if sens_q[{sc}] > 0:\n"
-            f"{ind}            val = np.rint(val / sens_q[{sc}]) * sens_q[{sc}]\n"
-            f"{ind}        y[i, sens_off[{sc}] + q] = val\n")
+            f"{ind}        z = noise[i, sens_tmp[{sc}, 3] + q] if sens_std[{sc}] > 0 else 0.0\n"
+            f"{ind}        y[i, sens_off[{sc}] + q] = measure(ring[i, {sc}, sens_tmp[{sc}, 1], q], sens_bias[{sc}], z, "
+            f"sens_q[{sc}])\n")
 
 
 def generate_source(effects, actuator, controller, sensors=()) -> str:
     """Python source of the loop for ``effects`` [(module, name, target)], ``actuator`` ((module, force),
     (module, advance)) and ``controller`` ((module, name) or None for the hybrid loop)."""
     imp = ["import numpy as np", "from numba import njit",
-           "from suspension_sim.compiled.mj import mj_step1, mj_step2, mj_step, mj_forwardSkip"]
+           "from suspension_sim.compiled.mj import mj_step1, mj_step2, mj_step, mj_forwardSkip",
+           "from suspension_sim.sensors.base import measure"]
     for k, (mod, name, _) in enumerate(effects):
         imp.append(f"from {mod} import {name} as eff{k}")
     (am, af), (am2, aa) = actuator

@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections import deque
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 from ..components import NoParams
@@ -104,6 +105,25 @@ class Sensor:
         return None
 
 
+@numba.njit(cache=True)
+def measure(value, bias, noise, quantization):
+    """The measurement law after the delay, for one reading: ``value + bias + noise``, then rounded to the
+    nearest multiple of ``quantization`` (when > 0).  The compiled loop inlines it; the Python loop calls
+    :func:`measure_all` (the same law over a car × column array)."""
+    y = value + bias + noise
+    if quantization > 0:
+        y = np.rint(y / quantization) * quantization
+    return y
+
+
+@numba.njit(cache=True)
+def measure_all(values, bias, noise, quantization, out):
+    """:func:`measure` over arrays of one shape (``noise`` the same shape), into ``out``."""
+    v, z, o = values.ravel(), noise.ravel(), out.ravel()
+    for j in range(v.shape[0]):
+        o[j] = measure(v[j], bias, z[j], quantization)
+
+
 class SensorChannel:
     """One declared sensor: a type plus its measurement pipeline."""
 
@@ -126,11 +146,13 @@ class SensorChannel:
         self._buf.append(true.copy())
         delayed = self._buf[0]
         if self._k % self.hold_steps == 0 or self._held is None:
-            y = delayed + self.cfg.bias
+            delayed = np.ascontiguousarray(delayed, dtype=np.float64)
             if self.cfg.noise_std > 0:
-                y = y + self.rng.normal(0.0, self.cfg.noise_std, size=y.shape)
-            if self.cfg.quantization > 0:
-                y = np.round(y / self.cfg.quantization) * self.cfg.quantization
+                noise = np.ascontiguousarray(self.rng.normal(0.0, self.cfg.noise_std, size=delayed.shape), dtype=np.float64)
+            else:
+                noise = np.zeros_like(delayed)
+            y = np.empty_like(delayed)
+            measure_all(delayed, float(self.cfg.bias), noise, float(self.cfg.quantization), y)
             self._held = y
         self._k += 1
         return self._held
