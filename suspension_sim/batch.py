@@ -551,7 +551,14 @@ class LocalEngine:
             while queue or pending:
                 while queue and len(pending) < 2 * self.workers:
                     i = queue.popleft()
-                    pending[ex.submit(fn, tasks[i])] = i
+                    try:
+                        pending[ex.submit(fn, tasks[i])] = i
+                    except BrokenProcessPool:  # the pool broke since the last wait: its running tasks are suspects
+                        queue.appendleft(i)
+                        suspects.extend(pending.values())
+                        pending.clear()
+                        ex.shutdown(wait=False, cancel_futures=True)
+                        ex = fresh()
                 done, _ = wait(pending, return_when=FIRST_COMPLETED)
                 broken = False
                 for f in done:

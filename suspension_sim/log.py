@@ -135,8 +135,8 @@ def stop_gap_sides_all(sim) -> list[dict]:
     n = sim.plant.n
     out: list[dict] = [{} for _ in range(n)]
     for eff, sel in sim.effects:
-        g_c, g_e = getattr(eff, "g_c", None), getattr(eff, "g_e", None)
-        if eff.name == "bump_stop" and g_c is not None and g_e is not None:
+        if eff.name == "bump_stop" and hasattr(eff, "gaps"):
+            g_c, g_e = eff.gaps()
             g_c = np.broadcast_to(np.asarray(g_c, dtype=float), (n, len(sel))).tolist()
             g_e = np.broadcast_to(np.asarray(g_e, dtype=float), (n, len(sel))).tolist()
             for k, c in enumerate(sel):

@@ -75,10 +75,15 @@ class BumpStop(Effect):
 
     kernel = staticmethod(_kernel)
 
-    def kernel_data(self):
+    def gaps(self):
+        """(compression gap, extension gap) per corner, m (for the metrics and the 3D view)."""
         gap = corner_array(self, "gap")
         g_c = gap if self.p.gap_compression is None else corner_array(self, "gap_compression")
         g_e = gap if self.p.gap_extension is None else corner_array(self, "gap_extension")
+        return g_c, g_e
+
+    def kernel_data(self):
+        g_c, g_e = self.gaps()
         return (self.pack(g_c, g_e, corner_array(self, "stiffness"), corner_array(self, "damping")),
                 self.pack(0.0))
 
