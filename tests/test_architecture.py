@@ -59,9 +59,7 @@ PACKAGES = {
     "suspension_sim.commands": APPS, "suspension_sim.diagnose": APPS, "suspension_sim.reproductions": APPS,
     "suspension_sim.rl": APPS,
 }
-# import cycles still to cut (sorted module lists): diagnose's data checks (plausibility) build a calibration
-# Problem, whose module imports io, which runs the data checks (all three imports but one inside functions)
-KNOWN_CYCLES = [["suspension_sim.diagnose.calibrate", "suspension_sim.diagnose.io", "suspension_sim.diagnose.plausibility"]]
+KNOWN_CYCLES: list = []  # import cycles still to cut (sorted module lists): none
 LAYER_NAMES = ["base", "components", "config", "build", "run", "log", "metrics", "outputs", "simulation", "apps"]
 
 

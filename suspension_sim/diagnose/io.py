@@ -110,7 +110,7 @@ def parse_map(items: list[str] | None) -> dict[str, tuple[str, float]]:
 
 def read_table(path: str | Path) -> pd.DataFrame:
     """One data file as a DataFrame (columns as in the file)."""
-    from .plausibility import check_data_file
+    from .datafile import check_data_file
 
     p = Path(path)
     check_data_file(p)  # exists, a file, size limit, not binary
@@ -165,7 +165,7 @@ def load_record(paths, kind: str, mapping: dict[str, tuple[str, float]] | None =
         if s not in df.columns:
             raise ScenarioError(f"--map: no column/variable {s!r} in the data (has: {', '.join(map(str, df.columns))})",
                                 source=src)
-    from .plausibility import numeric_column  # a decimal comma or a word is named, not "missing values"
+    from .datafile import numeric_column  # a decimal comma or a word is named, not "missing values"
 
     chans: dict[str, np.ndarray] = {}
     tcol = None
