@@ -132,7 +132,8 @@ def test_candidates_come_from_the_registry_declarations():
     ideal actuator's declared parameters give actuator_lag and actuator_delay, and a half car also gets
     each effect on one axle."""
     from suspension_sim.diagnose.candidates import library
-    from suspension_sim.diagnose.model import effect_candidates, load_model
+    from suspension_sim.diagnose.engine import effect_candidates
+    from suspension_sim.diagnose.model import load_model
     from suspension_sim.registry import EFFECTS
 
     declared = {n for n in EFFECTS.names() if getattr(EFFECTS.get(n), "free_parameters", None) is not None}

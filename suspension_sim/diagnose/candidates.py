@@ -21,7 +21,8 @@ import numpy as np
 
 from ..free_parameters import scale_of
 from ..registry import ACTUATORS
-from .model import EffectEntry, FreeParam, ModelSpec, effect_candidates, nominal_bounds, positive
+from .engine import effect_candidates
+from .model import EffectEntry, FreeParam, ModelSpec, nominal_bounds, positive
 
 
 @dataclass

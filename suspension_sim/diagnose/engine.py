@@ -493,8 +493,8 @@ def _gravity(m, d) -> np.ndarray:
     return -d.qfrc_bias.copy()
 
 
-def declared_effects() -> dict:
-    """Registered effects with a ``free_parameters`` declaration (the candidates)."""
+def effect_candidates() -> dict:
+    """Registered effects that declare ``free_parameters`` (each a diagnose candidate)."""
     out = {}
     for name in EFFECTS.names():
         cls = EFFECTS.get(name)
@@ -510,7 +510,7 @@ def _slots(kind: str, effects: list) -> list:
     if kind == "damper":
         return [(t, c, dict(f)) for _, t, c, f in effects]
     out = []
-    decl = declared_effects()
+    decl = effect_candidates()
     for etype, ecls in decl.items():
         if ecls.target != "suspension":
             continue

@@ -238,13 +238,3 @@ def load_model(path_or_dict, source: str | None = None) -> ModelSpec:
         if is_free:
             free.append(FreeParam(key, P[key], -np.inf if name == "force_offset" else 1e-6, np.inf, 1.0))
     return ModelSpec(kind, P, free, effects, fixed, source or "", raw, pz, bool(raw.get("offsets", True)), factor)
-
-
-def effect_candidates() -> dict:
-    """Registered effects that declare ``free_parameters`` (each a diagnose candidate)."""
-    out = {}
-    for name in EFFECTS.names():
-        cls = EFFECTS.get(name)
-        if getattr(cls, "free_parameters", None) is not None:
-            out[name] = cls
-    return out
