@@ -145,6 +145,29 @@ def test_candidates_come_from_the_registry_declarations():
     assert {"bump_stop@front", "bump_stop@rear", "bump_stop"} <= half
     full = {c.name for c in library(load_model({"model": "full_car"}))}
     assert {"hysteresis@front", "hysteresis@rear"} <= full
+    # the full car also gets each effect on one corner; a half car's axles are corners already
+    assert {"bump_stop@fl", "bump_stop@fr", "bump_stop@rl", "bump_stop@rr"} <= full
+    assert not any(n.endswith(("@fl", "@front_left")) for n in half)
+
+
+def test_a_corner_placement_is_a_scenario_effect_on_that_corner_only():
+    """What diagnose proposes for bump_stop@rl is an effect the scenario schema accepts on corner rl alone,
+    and a simulation with it has stop force at rl and nowhere else."""
+    from suspension_sim.config import parse_scenario
+    from suspension_sim.diagnose.candidates import library
+    from suspension_sim.diagnose.model import load_model
+    from suspension_sim.simulation import Simulation
+
+    cand = next(c for c in library(load_model({"model": "full_car"})) if c.name == "bump_stop@rl")
+    eff = cand.describe({"bump_stop@rl.gap": 0.005, "bump_stop@rl.stiffness": 5e4})["effect"]
+    assert eff["corners"] == ["rl"]
+    sc = parse_scenario({"vehicle": {"model": "full_car", "effects": [eff]},
+                         "road": {"type": "sine", "params": {"amplitude": 0.02, "frequency": 1.5}, "speed": 10},
+                         "sim": {"duration": 1.0}})
+    ts = Simulation([sc]).run()[0].ts
+    assert ts["effect_force_rl"].abs().max() > 10.0
+    for s in ("fl", "fr", "rr"):
+        assert ts[f"effect_force_{s}"].abs().max() == 0.0
 
 
 # ------------------------------------------------------------------------------------------------ workflow

@@ -6,8 +6,9 @@ candidate, and so is every free parameter the ideal actuator declares (``actuato
 that the model states as known.  Nothing here names an effect: a new effect file with a declaration is a
 candidate at once.
 
-On a car with more than one axle, each effect is also tried on one axle only (``bump_stop@front``): an
-effect on one axle is not fitted as a weaker effect on both.
+On a car with more than one axle, each effect is also tried on one axle only (``bump_stop@front``), and on
+the full car on one corner only (``bump_stop@fl``): an effect on one axle or corner is not fitted as a
+weaker effect on all of them.
 
 A candidate adds its parameters (starting values from the declared multiples of the data scales: the
 travel, travel-rate and suspension-force levels of the nominal simulation), and writes its fitted values as
@@ -186,13 +187,25 @@ def _axles(kind: str) -> dict[str, list[str]]:
     return {"front": [c.name for c in cs if c.x == xs[-1]], "rear": [c.name for c in cs if c.x == xs[0]]}
 
 
+def _placements(kind: str) -> dict[str, list[str]]:
+    """Where an effect may sit besides everywhere: each axle of a multi-axle car, and each corner where an
+    axle has more than one (the full car: ``fl``, ``fr``, ``rl``, ``rr``)."""
+    axles = _axles(kind)
+    out = dict(axles)
+    if any(len(c) > 1 for c in axles.values()):
+        for corners in axles.values():
+            for c in corners:
+                out[c] = [c]
+    return out
+
+
 def library(spec: ModelSpec, placements: bool = True) -> list[Candidate]:
     """Every candidate for the model: registered effects with declarations (and their axle placements),
     the ideal actuator's declared parameters, and every stated-known writable nominal parameter."""
     from .engine import writable_params
 
     out: list[Candidate] = []
-    axles = _axles(spec.kind) if placements else {}
+    axles = _placements(spec.kind) if placements else {}
     for etype, ecls in effect_candidates().items():
         out.append(EffectCandidate(etype, ecls))
         for ax, corners in axles.items():
