@@ -76,6 +76,10 @@ class Registry(Generic[T]):
             raise ScenarioError(f"unknown {self.kind} '{name}' (known: {known})", source=source, field=field)
         return self._items[name]
 
+    def unregister(self, name: str) -> None:
+        """Remove ``name`` (tests that register a piece for a while; unknown names are ignored)."""
+        self._items.pop(name, None)
+
     def names(self) -> list[str]:
         load_plugins()
         return sorted(self._items)

@@ -225,8 +225,8 @@ def _stop_gaps(sim, i) -> dict:
 def _stop_gap_sides(sim, i) -> dict:
     out = {}
     for eff, sel in sim.effects:
-        g_c, g_e = getattr(eff, "g_c", None), getattr(eff, "g_e", None)
-        if eff.name == "bump_stop" and g_c is not None and g_e is not None:
+        if eff.name == "bump_stop":  # (the effect kept g_c/g_e attributes before its law was written once)
+            g_c, g_e = eff.gaps()
             g_c = np.broadcast_to(np.asarray(g_c, dtype=float), (sim.plant.n, len(sel)))
             g_e = np.broadcast_to(np.asarray(g_e, dtype=float), (sim.plant.n, len(sel)))
             for k, c in enumerate(sel):

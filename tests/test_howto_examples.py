@@ -3,6 +3,10 @@ name plus this kind of test.  Copy the part you need into a new file of the righ
 (``controllers/``, ``suspension_sim/effects/``, ``roads/``, ``metrics/``, ``vehicles/``) and its test into
 ``tests/``; nothing else changes.
 
+In your own file, register with the decorator (``@CONTROLLERS.register("my_controller")`` above the class).
+Here the examples are registered by a fixture for the duration of this module only, so that they do not show
+up in other tests (a registered metric is computed for every run).
+
 Each example here is a plain-numpy component: it runs through the Python loop.  A built-in component writes
 its law once as a numba kernel instead (see ``controllers/skyhook.py``, ``effects/quadratic_damping.py``),
 which the compiled loop inlines and the base class broadcasts over the ensemble for the Python loop.
@@ -10,6 +14,7 @@ which the compiled loop inlines and the base class broadcasts over the ensemble 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from pydantic import Field
 
 from suspension_sim.components import Params
@@ -28,7 +33,6 @@ class GroundhookParams(Params):
     c_ground: float = Field(1500.0, ge=0, description="N·s/m")
 
 
-@CONTROLLERS.register("howto_groundhook")
 class Groundhook(Controller):
     """F = c_ground · ż_wheel: damps the wheel's absolute motion (force + pushes the wheel down)."""
 
@@ -47,7 +51,6 @@ class LinearSpringParams(Params):
     k: float = Field(5000.0, description="extra spring stiffness, N/m")
 
 
-@EFFECTS.register("howto_extra_spring")
 class ExtraSpring(Effect):
     """F = −k·s (stiffer suspension).  Signature: resonance moves up, static deflection unchanged."""
 
@@ -63,7 +66,6 @@ class RampParams(Params):
     slope: float = Field(0.01, description="m of height per m of road")
 
 
-@ROADS.register("howto_ramp")
 class Ramp(Road):
     """z = slope · x (a steady climb)."""
 
@@ -74,14 +76,12 @@ class Ramp(Road):
 
 
 # --- a metric: a function of one run's log -------------------------------------------------------------
-@METRICS.register("howto_travel_range")
 def travel_range(run: RunView) -> dict:
     """Peak-to-peak suspension travel per corner (m)."""
     return {f"travel_range{s}": float(np.ptp(run.col(f"travel{s}"))) for s in run.suffixes}
 
 
 # --- a vehicle: an MJCF file in models/ plus a class mapping scenario parameters onto it -----------------
-@VEHICLES.register("howto_heavy_rig")
 class HeavyRig(SDOF):
     """The SDOF rig's file (models/sdof.xml) with a heavier default mass; a new vehicle names its own xml."""
 
@@ -89,6 +89,20 @@ class HeavyRig(SDOF):
 
     class Params(SDOF.Params):
         sprung_mass: float = Field(400.0, gt=0, description="kg")
+
+
+EXAMPLES = [(CONTROLLERS, "howto_groundhook", Groundhook), (EFFECTS, "howto_extra_spring", ExtraSpring),
+            (ROADS, "howto_ramp", Ramp), (METRICS, "howto_travel_range", travel_range),
+            (VEHICLES, "howto_heavy_rig", HeavyRig)]
+
+
+@pytest.fixture(autouse=True, scope="module")
+def registered():
+    for reg, name, obj in EXAMPLES:  # what the decorator does in a component's own file
+        reg.register(name)(obj)
+    yield
+    for reg, name, _ in EXAMPLES:
+        reg.unregister(name)
 
 
 def run(raw):
