@@ -346,6 +346,18 @@ class System:
                 out[i, c] = road.height(np.array([t + dist / v]), np.array([xc]), self.geom.tracks[c])[0]
         return out
 
+    def reset(self):
+        """Back to the start of a run: MuJoCo data reset, corner Jacobian rebuilt, and the actuator, controller,
+        effects and sensor pipelines reset (both loops start with this)."""
+        mujoco.mj_resetData(self.plant.model, self.plant.data)
+        self.build_corner_jacobian()
+        self.actuator.reset()
+        self.controller.reset()
+        for e, _ in self.effects:
+            e.reset()
+        for ch in self.sensors:
+            ch.reset()
+
     def build_corner_jacobian(self):
         """Rows of each suspension tendon restricted to the body dofs (for corner body kinematics)."""
         P, m = self.plant, self.plant.model

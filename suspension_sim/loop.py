@@ -39,14 +39,7 @@ def steps(sim, logger, progress=None):
     P = sim.plant
     m, d = P.model, P.data
     n, nc = P.n, P.nc
-    mujoco.mj_resetData(m, d)
-    sim.build_corner_jacobian()
-    sim.actuator.reset()
-    sim.controller.reset()
-    for e, _ in sim.effects:
-        e.reset()
-    for ch in sim.sensors:
-        ch.reset()
+    sim.reset()
     command = np.zeros((n, nc))
     F_act = np.zeros((n, nc))
     F_eff = np.zeros((n, nc))

@@ -591,14 +591,7 @@ def run_steps(sim, mode: str, progress=None, logger=None):
     m, d = P.model, P.data
     n, nc = P.n, P.nc
     full = mode == "full"
-    mujoco.mj_resetData(m, d)
-    sim.build_corner_jacobian()
-    sim.actuator.reset()
-    sim.controller.reset()
-    for e, _ in sim.effects:
-        e.reset()
-    for ch in sim.sensors:
-        ch.reset()
+    sim.reset()
     ctrl = sim.controller
     if full:
         try:  # a controller may have no kernel for some settings (e.g. open loop's random signal)
