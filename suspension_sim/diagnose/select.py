@@ -228,9 +228,15 @@ class Selector:
         ch_a = np.sqrt(np.mean(e_new ** 2, axis=0))
         worse = [c for c, b_, a_, f_ in zip(self.prob.channels, ch_b, ch_a, floor_n) if a_ > b_ + f_]
         # sizes: an effect's size against zero, a freed nominal parameter's change against its stated value
-        refs = [(n, 0.0) if isinstance(n, str) else n for n in size_names]
-        zero = [n for n, ref in refs if n in fr.params
-                and not (abs(fr.params[n] - ref) > 2.0 * fr.std.get(n, np.inf))]
+        # an effect is pruned when all its sizes are zero (asymmetric damping with c_comp = 0 is still an effect)
+        groups: dict = {}
+        for entry in size_names:
+            n, ref = (entry, 0.0) if isinstance(entry, str) else entry
+            if n in fr.params:
+                key = (n.rpartition(".")[0] or n) if isinstance(entry, str) else ("parameter", n)
+                groups.setdefault(key, []).append(
+                    (n, not (abs(fr.params[n] - ref) > 2.0 * fr.std.get(n, np.inf))))
+        zero = [n for members in groups.values() if all(z for _, z in members) for n, _ in members]
         signif = z > self.z_min or xa <= 0.5 * xb
         tr.kept = bool(tr.d_bic < 0 and signif and xa <= (1 - self.min_excess_drop) * xb
                        and Ea <= (1 - self.min_rel_drop) * Eb and not worse and not zero)
