@@ -203,6 +203,19 @@ class Scenario(_Strict):
         return out
 
 
+def pick_variant(sc: Scenario, variant: str | None, source: str | None = None) -> Scenario:
+    """The scenario of one variant (``variant`` None: the scenario itself, which must then have no variants)."""
+    variants = dict(sc.expand(source))
+    if variant is not None:
+        if variant not in variants:
+            raise ScenarioError(f"no variant {variant!r} (has: {', '.join(variants)})", source=source, field="variants")
+        return variants[variant]
+    if sc.variants:
+        raise ScenarioError(f"the scenario has variants ({', '.join(variants)}): pass variant=<name>",
+                            source=source, field="variants")
+    return sc
+
+
 def deep_merge(base: dict, over: dict) -> dict:
     """Merge a variant's overrides into the base scenario. A component whose ``type`` changes is replaced
     whole (its old params would not fit the new type); ``params`` of the same type are updated key by key."""

@@ -53,8 +53,7 @@ from dm_control.mujoco import wrapper as _wrapper
 from dm_control.rl import control
 from dm_env import specs
 
-from .config import Scenario, load_scenario
-from .errors import ScenarioError
+from .config import Scenario, load_scenario, pick_variant
 from .loop import plant_state
 from .sensors.base import full_state_readings
 from .simulation import Simulation
@@ -231,15 +230,7 @@ def _scenario(scenario, variant, source):
         scenario = load_scenario(scenario)
     if not isinstance(scenario, Scenario):
         raise TypeError("make_env needs a scenario path or a Scenario")
-    variants = dict(scenario.expand(source))
-    if variant is not None:
-        if variant not in variants:
-            raise ScenarioError(f"no variant {variant!r} (has: {', '.join(variants)})", source=source, field="variants")
-        scenario = variants[variant]
-    elif scenario.variants:
-        raise ScenarioError(f"the scenario has variants ({', '.join(variants)}): pass variant=<name>",
-                            source=source, field="variants")
-    return scenario, source
+    return pick_variant(scenario, variant, source), source
 
 
 def make_env(scenario, variant: str | None = None, *, api: str = "dm_control", w_acc: float = 1.0,

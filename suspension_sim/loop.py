@@ -85,13 +85,7 @@ def steps(sim, logger, progress=None):
             sim.last_forces = (F_act, F_eff, F_teff)
             check_divergence(sim, t, d)
             state = plant_state(sim, t, road, road_vel, acc, F_act, F_teff)
-            readings = {ch.name: ch.sample(state) for ch in sim.sensors}
-            if sim.full_state:
-                readings.update(full_state_readings(state))
-            sim.t, sim.state = t, state
-            command = np.asarray((yield readings), dtype=float)
-            if command.shape != (n, nc):
-                command = np.broadcast_to(command, (n, nc)).astype(float)
+            command, readings = yield from exchange(sim, t, state)
         travel = S.susp_len.get()
         rate = S.susp_vel.get()
         if sim.trap:
@@ -155,6 +149,21 @@ def steps(sim, logger, progress=None):
     if progress is not None:
         progress(1.0)
     return wall
+
+
+def exchange(sim, t, state):
+    """A control instant of either loop: the sensors sample ``state``, the readings are yielded to the
+    controller's caller, and the command sent back (broadcast to (n_cars, n_corners)) is returned with the
+    readings.  Used as ``command, readings = yield from exchange(sim, t, state)``."""
+    readings = {ch.name: ch.sample(state) for ch in sim.sensors}
+    if sim.full_state:
+        readings.update(full_state_readings(state))
+    sim.t, sim.state = t, state
+    command = np.asarray((yield readings), dtype=float)
+    shape = (sim.plant.n, sim.plant.nc)
+    if command.shape != shape:
+        command = np.broadcast_to(command, shape).astype(float)
+    return command, readings
 
 
 def plant_state(sim, t, road, road_vel, acc, F_act, F_tire_eff) -> PlantState:

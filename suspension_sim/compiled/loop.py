@@ -584,7 +584,7 @@ def run_steps(sim, mode: str, progress=None, logger=None):
     the reinforcement-learning envs of :mod:`suspension_sim.rl`); returns the wall time (``StopIteration.value``).
     Without a ``logger`` the log is kept in a bare record (``t``, ``ch``) nobody reads."""
     from ..errors import SimulationDiverged
-    from ..loop import check_divergence, plant_state
+    from ..loop import check_divergence, exchange, plant_state
     from ..sensors.base import PlantState  # noqa: F401  (documented type of sim.state)
 
     P = sim.plant
@@ -792,15 +792,7 @@ def run_steps(sim, mode: str, progress=None, logger=None):
             states = {nm: a_st[:, :, a_idx[nm]].copy() for nm in act_names}
             states["force"] = F_act.copy()
             state.actuator_states = states
-            readings = {ch.name: ch.sample(state) for ch in sim.sensors}
-            if sim.full_state:
-                from ..sensors.base import full_state_readings
-
-                readings.update(full_state_readings(state))
-            sim.t, sim.state = t, state
-            command = np.asarray((yield readings), dtype=float)
-            if command.shape != (n, nc):
-                command = np.broadcast_to(command, (n, nc)).astype(float)
+            command, readings = yield from exchange(sim, t, state)
             cmd[:] = command
             sig = {nm: np.asarray(v, dtype=float).reshape(n, -1) for nm, v in ctrl.signals().items()}
             rd = [(nm, np.asarray(v).reshape(n, -1)) for nm, v in readings.items() if not nm.startswith("state.")]

@@ -70,7 +70,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.vector.utils import batch_space
 
-from ..config import Scenario, load_scenario, parse_scenario
+from ..config import Scenario, parse_scenario
 from ..errors import ScenarioError, SimulationDiverged
 from .runner import EnsembleRunner
 
@@ -147,20 +147,12 @@ def _resolve(scenario, variant, overrides, source=None) -> tuple[Scenario, str |
         raw = scenario.model_dump(mode="json")
     else:
         raise TypeError("scenario must be a path, a preset name, a scenario dict or a Scenario")
-    from ..config import apply_set
+    from ..config import apply_set, pick_variant
 
     for s in overrides or []:
         apply_set(raw, s, source=source)
     sc = parse_scenario(raw, source=source)
-    variants = dict(sc.expand(source))
-    if variant is not None:
-        if variant not in variants:
-            raise ScenarioError(f"no variant {variant!r} (has: {', '.join(variants)})", source=source, field="variants")
-        sc = variants[variant]
-    elif sc.variants:
-        raise ScenarioError(f"the scenario has variants ({', '.join(variants)}): pass variant=<name>",
-                            source=source, field="variants")
-    return sc, source
+    return pick_variant(sc, variant, source), source
 
 
 def _action_scale(sim, action_scale, source):
