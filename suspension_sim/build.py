@@ -169,6 +169,13 @@ class System:
                                 effective_mass=self.tendon_effective_mass(
                                     (P.tire_t if ecls.target == "tire" else P.susp_t)[:, sel]))
             self.effects.append((ecls(stack_params(plist, len(sel)), ctx), np.asarray(sel)))
+        # the name an effect's signals are logged under (effect.LABEL.SIGNAL.k): the type's name, and for a second
+        # effect of the same type (e.g. bump stops front and rear with other gaps) NAME#2, NAME#3, ... so that
+        # the two never write the same columns
+        seen: dict[str, int] = {}
+        for eff, _ in self.effects:
+            seen[eff.name] = seen.get(eff.name, 0) + 1
+            eff.label = eff.name if seen[eff.name] == 1 else f"{eff.name}#{seen[eff.name]}"
 
         # actuator --------------------------------------------------------------------------------------
         acls = ACTUATORS.get(sc0.actuator.type, field="actuator.type", source=source)

@@ -79,7 +79,7 @@ class Logger:
             for name, val in eff.signals().items():
                 val = np.asarray(val, dtype=float).reshape(self.n, -1)
                 for c in range(val.shape[1]):
-                    self._put(f"effect.{eff.name}.{name}.{c}", j, val[:, c])
+                    self._put(f"effect.{eff.label}.{name}.{c}", j, val[:, c])
 
     def post(self, j, qacc):
         P = self.sim.plant

@@ -298,3 +298,20 @@ def test_effect_in_plain_numpy_runs_in_the_python_loop(monkeypatch):
     np.testing.assert_array_equal(ts_u["effect._test_numpy_quadratic.force.0"].to_numpy(), ts_u["effect_force"].to_numpy())
     for col in ("body_z", "travel", "effect_force"):
         np.testing.assert_allclose(ts_u[col], ts_b[col], rtol=0, atol=1e-12 * ts_b[col].abs().max())
+
+
+def test_two_effects_of_one_type_log_separate_columns(monkeypatch):
+    """Bump stops front and rear with different gaps: each effect's signals get their own columns
+    (``bump_stop`` and ``bump_stop#2``) in both loops; before, the second overwrote the first's."""
+    effects = [{"type": "bump_stop", "corners": ["front"], "params": {"gap": 0.005}},
+               {"type": "bump_stop", "corners": ["rear"], "params": {"gap": 0.5}}]
+    raw = {"name": "two_stops", "vehicle": {"model": "half_car", "effects": effects},
+           "road": {"type": "sine", "params": {"amplitude": 0.05, "frequency": 3.0}, "speed": 20.0},
+           "controller": {"type": "passive"}, "sim": {"duration": 0.4, "seed": 1}}
+    for compiled in (True, False):
+        sim, res = _run([parse_scenario(raw)], compiled, monkeypatch)
+        ts = res[0].ts
+        assert [e.label for e, _ in sim.effects] == ["bump_stop", "bump_stop#2"]
+        front, rear = ts["effect.bump_stop.engaged.0"], ts["effect.bump_stop#2.engaged.0"]
+        assert front.abs().max() == 1.0  # the 5 mm front stop is reached
+        assert rear.abs().max() == 0.0   # the 50 cm rear stop is not

@@ -612,7 +612,7 @@ def run_steps(sim, mode: str, progress=None, logger=None):
         sig = eff.kernel_signals()
         names = [nm for nm in eff.signals() if nm in sig]
         eff_args.append([_f64(p), _f64(st), cmap, np.array([sig[nm] for nm in names], dtype=np.int64)])
-        eff_sigs.append((eff.name, names, len(sel)))
+        eff_sigs.append((eff.label, names, len(sel)))
     act = sim.actuator
     actuator = (_kernel_ref(type(act).kernel_force), _kernel_ref(type(act).kernel_advance))
     a_p, a_st = (_f64(x) for x in act.kernel_data())

@@ -51,6 +51,16 @@ class Effect:
     Params = NoParams
     signature = ""  # what the effect looks like in data
 
+    @property
+    def label(self) -> str:
+        """The name its signals are logged under (``effect.LABEL.SIGNAL.k``): :attr:`name`, or ``NAME#2``, ... for
+        a second effect of the same type in one vehicle (set when the system is built)."""
+        return self.__dict__.get("_label", self.name)
+
+    @label.setter
+    def label(self, value: str) -> None:
+        self._label = value
+
     def __init__(self, p, ctx: EffectContext):
         self.p = p
         self.ctx = ctx

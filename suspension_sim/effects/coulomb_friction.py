@@ -111,7 +111,8 @@ class CoulombFriction(Effect):
         v_eps = corner_array(self, "v_eps")
         dt = self.ctx.dt
         gain = np.where(tanh, Fc / v_eps * dt / m_r, 0.0)
-        if np.any(gain > 1.0):
+        if np.any(gain > 1.0) and not getattr(self, "_warned", False):
+            self._warned = True  # once per effect, not at every reset / run of a batch
             vmin = float(np.max(Fc * dt / m_r))
             warnings.warn(f"coulomb_friction: v_eps is small for dt={dt:g} s (F_c/v_eps·dt/m_red = "
                           f"{float(np.max(gain)):.2g} > 1): the friction force will chatter near zero travel "
