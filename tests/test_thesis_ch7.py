@@ -67,3 +67,53 @@ def test_actuator_polarities(braking):
     # the pair balances the manoeuvre moment M·a_x·h: |F| ≈ M·|a_x|·h/(a + b) per axle
     assert acc.actuator_force_rear.mean() == pytest.approx(500 * 4 * 1.25 / 3.0, rel=0.25)
     assert brk.actuator_force_front.mean() == pytest.approx(500 * 7 * 1.25 / 3.0, rel=0.25)
+
+
+def _variants(root, name):
+    sc = parse_scenario(read_yaml(root / "scenarios" / f"{name}.yaml"))
+    return {v: Simulation([s]).run()[0].ts for v, s in sc.expand()}
+
+
+def _err(ts, ref, col, t0, t1):
+    m = ((ts.t >= t0) & (ts.t < t1)).to_numpy()
+    return float(np.sqrt(np.mean((ts[col].to_numpy() - ref[col].to_numpy())[m] ** 2)))
+
+
+@pytest.fixture(scope="module")
+def road(request):
+    return _variants(request.config.rootpath, "thesis_ch7_road")
+
+
+def test_road_excited_bounce_and_pitch_follow_the_reference(road):
+    """Thesis Sec. 7.5.1 (Figs. 7.4–7.5): on sines reaching the rear wheel τ = L/v later (bounce and pitch both
+    excited), with the spring drift and the manoeuvre at 20/40 s, the MRAC follows the two-tier skyhook
+    reference after 4 s.  Both baselines fail the same bound: the passive car (error ≥ 5×) and the MRAC with
+    adaptation off (the nominal Θ held: error ≥ 2×)."""
+    m = road["mimo_mrac"]
+    ref = m.assign(body_z=m["ctrl.ref_z"], pitch=m["ctrl.ref_pitch"])
+    pa = road["passive"]
+    assert np.sqrt(np.mean(pa.body_z[(pa.t > 4) & (pa.t < 20)] ** 2)) > 0.005  # bounce is excited
+    for col in ("body_z", "pitch"):
+        e = {k: _err(road[k], ref, col, 4, 60) for k in ("mimo_mrac", "mimo_fixed", "passive")}
+        assert e["mimo_mrac"] < 0.2 * e["passive"], (col, e)
+        assert e["mimo_mrac"] < 0.5 * e["mimo_fixed"], (col, e)  # adaptation is what does it
+    dive = {k: np.degrees(np.max((road[k].pitch - ref.pitch)[(road[k].t >= 40) & (road[k].t < 43)]))
+            for k in road}
+    assert dive["passive"] > 4.0 and dive["mimo_mrac"] < 0.2 * dive["passive"]
+    assert dive["mimo_fixed"] > 2 * dive["mimo_mrac"]
+
+
+def test_dirt_road_following_is_not_reproduced(request):
+    """Thesis Sec. 7.5.2 (Fig. 7.8): on the dirt road the active car follows the reference closely.  Ours does
+    not: with the braking tuning (covariance addition Q = 1e-6) the estimates drift and the bounce error grows
+    past the passive car's; with Q = 0 it stays bounded but no better than the nominal design held fixed, and
+    the body acceleration of every controlled car is above passive.  This pins that (see the page)."""
+    ts = _variants(request.config.rootpath, "thesis_ch7_dirt")
+    m = ts["mimo_mrac"]
+    ref = m.assign(body_z=m["ctrl.ref_z"])
+    e = {k: _err(t, ref, "body_z", 4, 60) for k, t in ts.items()}
+    acc = {k: float(np.sqrt(np.mean(t.body_acc[t.t > 4] ** 2))) for k, t in ts.items()}
+    assert e["mimo_mrac"] > e["passive"]
+    assert e["mimo_mrac_q0"] > 0.8 * e["mimo_fixed"]
+    assert e["mimo_mrac_q0"] < 0.7 * e["passive"]
+    assert min(acc["mimo_mrac_q0"], acc["mimo_fixed"], acc["mimo_mrac"]) > acc["passive"]
