@@ -126,7 +126,7 @@ def _kim_reference(steps, q, Tc):
         F_d = -q["c_sky"] * vb - q["b_s"] * vrel  # (5), dissipative sign
         dFd = -q["c_sky"] * ab - q["b_s"] * (ab - aw)
         v = (dFd if q["use_fd_dot"] else 0.0) - q["k_d"] * (x - F_d)  # (18) / (33)
-        Y2 = A * (vrel + q["rate_prediction"] * (ab - aw))
+        Y2 = A * (vrel + (q["rate_prediction"] + 0.5 * Tc * q["hold_midpoint"]) * (ab - aw))
         root = math.sqrt(abs(Ps - math.copysign(1.0, XV) * (XV != 0) * x / A))
         f_hat = theta[0] * x + theta[1] * Y2
         g_min = q["g_min_fraction"] * KIM_A[2] * math.sqrt(Ps)
@@ -152,9 +152,11 @@ def test_kim_law_against_the_equations():
     """Four steps of three cars (with dF_d/dt and rate prediction; without them and not adapting; an a3
     estimate so low that the ĝ floor acts, with larger adaptation gains) from random readings."""
     g = dict(gain_a1=1e-10, gain_a2=1e-10, gain_a3=1e-10, a1=KIM_A[0])  # not the scenario's
-    cases = [dict(k_d=10.0, use_fd_dot=True, rate_prediction=2e-4, a2=0.8 * KIM_A[1], a3=1.2 * KIM_A[2], **g),
-             dict(k_d=1000.0, use_fd_dot=False, rate_prediction=0.0, adaptive=False, a2=KIM_A[1], a3=KIM_A[2], **g),
-             dict(k_d=100.0, use_fd_dot=True, rate_prediction=0.0, a2=KIM_A[1], a3=0.02 * KIM_A[2],
+    cases = [dict(k_d=10.0, use_fd_dot=True, rate_prediction=2e-4, hold_midpoint=True, a2=0.8 * KIM_A[1],
+                  a3=1.2 * KIM_A[2], **g),
+             dict(k_d=1000.0, use_fd_dot=False, rate_prediction=0.0, hold_midpoint=False, adaptive=False, a2=KIM_A[1],
+                  a3=KIM_A[2], **g),
+             dict(k_d=100.0, use_fd_dot=True, rate_prediction=0.0, hold_midpoint=False, a2=KIM_A[1], a3=0.02 * KIM_A[2],
                   **{**g, "gain_a1": 1e-8, "gain_a2": 1e-8, "gain_a3": 1e-8})]
     sim = Simulation([_from_file("kim_fig2.yaml", 0.1, force_sensor="hydraulic_force", **c) for c in cases])
     ctrl = sim.controller
@@ -169,7 +171,7 @@ def test_kim_law_against_the_equations():
     for i, case in enumerate(cases):
         q = {k: float(np.asarray(getattr(ctrl.p, k)).reshape(-1)[i]) for k in (
             "c_sky", "b_s", "k_d", "use_fd_dot", "alpha1", "k_pf", "area", "supply_pressure", "a1", "a2", "a3",
-            "adaptive", "gain_a1", "gain_a2", "gain_a3", "g_min_fraction", "rate_prediction")}
+            "adaptive", "gain_a1", "gain_a2", "gain_a3", "g_min_fraction", "rate_prediction", "hold_midpoint")}
         r = [{k: float(y[k][i, 0]) for k in ("travel", "travel_rate", "corner_body_vel", "corner_body_acc", "wheel_acc")}
              | dict(x=float(y["hydraulic_force"][i, 0]), spool=float(y["spool_position"][i, 0])) for y in steps]
         u_ref, sig_ref, floored = _kim_reference(r, q, Tc)
