@@ -14,7 +14,10 @@ Error model and adaptation (Eqs. 3.23–3.35): with P = P1·P2, P1 = A_m, P2 = A
 the filtered error is e itself), regressor φ = (F/P, s·x/P, x/P, −s·w/P, −w/P) and parameters
 Θ = (r1 − a0, s0, s1, t0, t1) (the first entry multiplies F/P: R = P2 + (r1 − a0)), control
 F_cont = −Θᵀ(P1 φ), error augmentation η = −(F/P1 + φᵀΘ), augmented error ε = e + b̂0 η + K_v ė
-(the thesis's velocity term; K_v in s), normalised gradient law dΘ/dt = Γφε/(α + φᵀΓφ), and the
+(the thesis's velocity term; K_v in s), the normalised gradient law as printed (Eq. 3.34),
+dΘ/dt = γφε/(α + φᵀφ), written in the coordinates Θ/S scaled by the nominal magnitudes S = |Θ_nom| (ours: the
+entries differ by four orders of magnitude), i.e. dΘ/dt = γS²φε/(α + φᵀS²φ): γ sets the rate (≈ γ·b0 in the
+best-excited direction); γ = 0 turns the adaptation of Θ off.  And the
 gradient estimate of b0 (Eq. 3.35, partly garbled; read as db̂0/dt = −γ_b η ε̂/(α_b + η²) with the
 prediction error ε̂ = e + b̂0 η).  The filters run at the control step by zero-order hold (the thesis
 integrates them "by simple trapezoidal integration" at 0.01 s).
@@ -38,7 +41,11 @@ of M*, C*, K* as the initial design values"), or ``theta0`` explicitly.
 
 Sensors: ``body_pos`` (x from the static equilibrium), ``body_vel`` (ẋ, for the velocity error), ``road``
 (w) and ``road_vel`` (ẇ) — the base of the rig.  Signals: ``theta.k``, ``b0``, ``ref_x``, ``ref_acc``,
-``ref_travel``, ``err``.
+``ref_travel``, ``err``, ``phi.k`` (the regressor, k = 5 is θ_d's) and ``eps`` (the augmented error).
+
+θ_d with a large γ_d (20000 in the load-step scenarios) is not only a static term: its normalised law is a
+high-gain integral action on ε that makes the loop follow the reference with any Θ (even Θ = 0), so Θ then
+need not adapt (scenarios/thesis_ch3_adaptation.yaml shows both).
 
 The law is the numba kernel ``_kernel`` for one car (the base Controller broadcasts it over an ensemble for
 the Python loop; the compiled loop inlines it), written out for this controller's fixed filter orders
@@ -68,7 +75,7 @@ class MRACContinuousParams(Params):
     ref_stiffness: float = Field(5000.0, gt=0, description="reference K_m (N/m)")
     ref_damping: float = Field(6000.0, gt=0, description="reference skyhook damper D_m (N·s/m)")
     a0: float = Field(2.0, gt=0, description="observer polynomial A0 = s + a0 (thesis: 2)")
-    gamma: float = Field(1.0, gt=0, description="adaptation gain γ (normalised law)")
+    gamma: float = Field(1.0, ge=0, description="adaptation gain γ of the printed normalised law γφε/(α + φᵀφ) (0: adaptation of Θ off)")
     alpha: float = Field(1e-6, gt=0, description="normalisation α in γφε/(α + φᵀΓφ)")
     p1: Optional[float] = Field(None, gt=0, description="P1 = (s + p1)² instead of the thesis's P1 = A_m "
                                 "(see module doc); none = thesis")
@@ -88,10 +95,11 @@ class MRACContinuousParams(Params):
 # unused scratch).
 _FILTERS = ("fEf", "fP", "fsP", "fP2", "fsP2", "fP1", "ref")
 _HEF, _HP, _HSP, _HP2, _HSP2, _HP1, _HREF = (ZOH_HEADER * i for i in range(len(_FILTERS)))
-_PS = ZOH_HEADER * len(_FILTERS)  # scalars: sensor offsets x, ẋ, w, ẇ; h, K_v, α, γ_d, static, γ_b0, b-range, Kc, Cc, 2ζω, ω²
-_PG = _PS + 16  # Γ (5)
+_PS = ZOH_HEADER * len(_FILTERS)  # scalars: sensor offsets x, ẋ, w, ẇ; h, K_v, α, γ_d, static, γ_b0, b-range, Kc, Cc, 2ζω, ω², γ
+_PG = _PS + 17  # S² (5): the per-parameter scaling (Γ = γ·S²)
 _ST_TH, _ST_B0, _ST_F, _ST_RX, _ST_RA, _ST_RT, _ST_E = 0, 6, 7, 8, 9, 10, 11
 _ST_PHI, _ST_P1PHI, _ST_U = 12, 18, 24
+_ST_EPS = _ST_P1PHI  # the augmented error ε (a signal; the slot is P1·φ scratch the specialised kernel does not use)
 _ST_N = 28
 
 # The kernel is written out for this controller's fixed filter orders (P = P1·P2 of degree 3, P1 and the
@@ -232,16 +240,18 @@ def _kernel(t, y, p, st, u):
         st[_ST_TH + 5]
     eta = -(FP1 + _d6(ph0, ph1, ph2, ph3, ph4, ph5, th0, th1, th2, th3, th4, th5))
     eps = ef + b0 * eta + k_v * ed
-    # adaptation (normalised gradient, Euler over the control step; Σ φ_k Γ_k φ_k in order from 0.0)
+    # adaptation: the printed normalised law γφε/(α + φᵀφ) in the scaled coordinates Θ/S (Euler over the
+    # control step; Σ φ_k S_k² φ_k in order from 0.0); γ multiplies the normalised step, as printed
     G0, G1, G2, G3, G4 = p[_PG], p[_PG + 1], p[_PG + 2], p[_PG + 3], p[_PG + 4]
     den = alpha + (((((0.0 + ph0 * G0 * ph0) + ph1 * G1 * ph1) + ph2 * G2 * ph2) + ph3 * G3 * ph3)
                    + ph4 * G4 * ph4)
     r = eps / den
-    th0 += h * G0 * ph0 * r
-    th1 += h * G1 * ph1 * r
-    th2 += h * G2 * ph2 * r
-    th3 += h * G3 * ph3 * r
-    th4 += h * G4 * ph4 * r
+    hg = h * p[_PS + 16]
+    th0 += hg * G0 * ph0 * r
+    th1 += hg * G1 * ph1 * r
+    th2 += hg * G2 * ph2 * r
+    th3 += hg * G3 * ph3 * r
+    th4 += hg * G4 * ph4 * r
     if p[_PS + 8] != 0.0:
         th5 += h * p[_PS + 7] * ph5 * eps / (alpha + ph5 * ph5)
     bn = b0
@@ -285,6 +295,9 @@ def _kernel(t, y, p, st, u):
     st[_ST_B0] = bn
     st[_ST_F] = F
     st[_ST_E] = e
+    st[_ST_EPS] = eps
+    st[_ST_PHI], st[_ST_PHI + 1], st[_ST_PHI + 2], st[_ST_PHI + 3], st[_ST_PHI + 4], st[_ST_PHI + 5] = \
+        ph0, ph1, ph2, ph3, ph4, ph5
     st[_ST_RX] = xr0
     st[_ST_RA] = ra
     st[_ST_RT] = xr0 - w
@@ -317,7 +330,8 @@ class MRACContinuous(Controller):
         # per-parameter gain: scaled by the nominal magnitudes (conditioning of the normalised law)
         scale = np.abs(self.theta_nom).copy()
         scale[5] = 1000.0 * max(abs(r1), 1.0)  # θ_d ≈ r1·d with d of the order of kN
-        self.Gamma = shared_value(p.gamma) * scale[:5] ** 2
+        self.scale2 = scale[:5] ** 2
+        self.Gamma = shared_value(p.gamma) * self.scale2
         self.b0 = b0
         self.b_lim = (0.2 * b0, 5.0 * b0)
         Am = [1.0, zw2, wm2]
@@ -342,8 +356,8 @@ class MRACContinuous(Controller):
         p = self.p
         lay.p(sl + [self.ctx.control_dt, shared_value(p.k_v), shared_value(p.alpha), shared_value(p.gamma_d),
                     float(bool(p.static_level)), shared_value(p.gamma_b0), self.b_lim[0], self.b_lim[1], self.Kc,
-                    self.Cc, self.zw2, self.wm2])
-        assert lay.p(self.Gamma) == _PG
+                    self.Cc, self.zw2, self.wm2, shared_value(p.gamma)])
+        assert lay.p(self.scale2) == _PG
         assert lay.st(self.theta0) == _ST_TH
         lay.st([self.b0, 0.0, 0.0, 0.0, 0.0, 0.0])  # b0, F, ref_x, ref_acc, ref_travel, err
         assert lay.st(np.zeros(_ST_N - _ST_PHI)) == _ST_PHI
@@ -359,4 +373,4 @@ class MRACContinuous(Controller):
 
     def kernel_signals(self):
         return {"theta": (_ST_TH, _ST_TH + 6), "b0": (_ST_B0, _ST_B0 + 1), "ref_x": (_ST_RX, _ST_RX + 1),
-                "ref_acc": (_ST_RA, _ST_RA + 1), "ref_travel": (_ST_RT, _ST_RT + 1), "err": (_ST_E, _ST_E + 1)}
+                "ref_acc": (_ST_RA, _ST_RA + 1), "ref_travel": (_ST_RT, _ST_RT + 1), "err": (_ST_E, _ST_E + 1), "phi": (_ST_PHI, _ST_PHI + 6), "eps": (_ST_EPS, _ST_EPS + 1)}

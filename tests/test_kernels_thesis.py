@@ -127,7 +127,7 @@ def mrac_continuous_reference(c, run, i):
     Am, A0 = [1.0, zw2, wm2], [1.0, a0]
     P1 = Am if p.p1 is None else [1.0, 2 * p.p1, p.p1 ** 2]
     P = np.polymul(P1, A0)
-    G = p.gamma * np.abs(th[:5]) ** 2  # Γ: the gain scaled by the nominal magnitudes
+    S2 = np.abs(th[:5]) ** 2  # the scaling by the nominal magnitudes (the printed law in coordinates Θ/S)
     f = {"F/P": Filt.tf([1.0], P, h), "x/P": Filt.tf([1.0], P, h), "w/P": Filt.tf([1.0], P, h),
          "1/P": Filt.tf([1.0], P, h), "sx/P": Filt.tf([1.0, 0.0], P, h), "sw/P": Filt.tf([1.0, 0.0], P, h),
          "F/P2": Filt.tf([1.0], A0, h), "x/P2": Filt.tf([1.0], A0, h), "w/P2": Filt.tf([1.0], A0, h),
@@ -148,7 +148,7 @@ def mrac_continuous_reference(c, run, i):
         eta = -(f["F/P1"].out()[0] + phi @ th)
         ef = f["Qe/P"].out(e)[0]
         eps = ef + b0 * eta + p.k_v * (xd - xmd)
-        th[:5] += h * G * phi[:5] * eps / (p.alpha + np.sum(G * phi[:5] ** 2))
+        th[:5] += h * p.gamma * S2 * phi[:5] * eps / (p.alpha + np.sum(S2 * phi[:5] ** 2))  # γφε/(α + φᵀφ)
         if p.static_level:
             th[5] += h * p.gamma_d * phi[5] * eps / (p.alpha + phi[5] ** 2)
         if p.gamma_b0 > 0:
@@ -159,14 +159,15 @@ def mrac_continuous_reference(c, run, i):
                       ("Qe/P", e), ("ref", w)):
             f[nm].push(v)
         out.append((F - Cc * wd - Kc * w, {"theta": th.copy(), "b0": b0, "ref_x": xm,
-                                            "ref_acc": -zw2 * xmd - wm2 * (xm - w), "ref_travel": xm - w, "err": e}))
+                                            "ref_acc": -zw2 * xmd - wm2 * (xm - w), "ref_travel": xm - w, "err": e,
+                                            "phi": phi.copy(), "eps": eps}))
     return out
 
 
 CH3_SCALES = {"body_pos": 0.005, "body_vel": 0.03, "road": 0.005, "road_vel": 0.03}
 
 
-@pytest.mark.parametrize("params", [{"static_level": True, "p1": 20.0}, {"gamma_b0": 50.0, "static_level": False, "p1": None, "fully_active": True}])
+@pytest.mark.parametrize("params", [{"static_level": True, "p1": 20.0, "gamma": 50.0}, {"gamma_b0": 50.0, "static_level": False, "p1": None, "fully_active": True}])
 def test_mrac_continuous_law(request, params):
     """Thesis Ch. 3 law (regressor filters, augmented error, normalised gradient, θ_d and b0 laws) for two
     cars; with the b0 estimator on, it runs into its lower clip."""

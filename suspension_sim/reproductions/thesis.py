@@ -85,8 +85,8 @@ def ch3_load_step(ctx) -> ItemOutput:
               f"largest Θ error {rel0.max():.0%} at 0 s → {rel20.max():.1%} at 20 s; following "
               f"{follow['mrac_wrong_start'] * 1000:.2f} mm (nominal start {follow['mrac'] * 1000:.2f} mm)",
               "not" if rel20.max() > 0.5 * rel0.max() else "reproduced",
-              "the error is already small with wrong gains (the loop is robust), so ε and the normalised "
-              "update (step independent of γ when α ≪ φᵀΓφ) stay small: Θ hardly moves"),
+              "γ = 1 (rate ≈ γ·b0 = 0.004 s⁻¹), and the fast θ_d law (γ_d = 20000, ours) is a high-gain integral "
+              "action on ε that follows with any Θ (even Θ = 0): see item ch3_adaptation, where Θ does adapt"),
     ]
     fig, ax = plt.subplots(3, 1, figsize=(7.5, 7.5), sharex=True)
     for v, s in (("passive", "g-"), ("mrac_thesis", "m-"), ("mrac", "r-"), ("mrac_wrong_start", "b--")):
@@ -108,6 +108,111 @@ def ch3_load_step(ctx) -> ItemOutput:
     key = {"passive_sag": (z["passive"], 0.01), "thesis_sag": (z["mrac_thesis"], 0.01),
            "mrac_level": (z["mrac"], 0.01), "mrac_force": (f["mrac"], 10.0),
            "follow_mrac": (follow["mrac"], 1e-3), "theta_err_20s": (float(rel20.max()), 0.01)}
+    return ItemOutput(claims, key=key, figure=fig, notes=[HALF_NOTE])
+
+
+def theta_star(M, K, C, Kd=5000.0, Cd=250.0, a0=2.0, Mm=250.0, Km=5000.0, Dm=6000.0):
+    """The matching Θ* = (r1 − a0, s0, s1, t0, t1) of the Ch. 3 regulator for the plant (M, K, C) when the
+    fail-safe feedforward of Eq. 3.6 uses the nominal K*, C* (Kd, Cd): the Diophantine design for the true
+    plant, with T corrected by the feedforward mismatch, T' = T* − (s + r1)(ΔC·s + ΔK) (its ΔC·s² part is
+    not in the structure and is left out), and v = dΘ*/da0: the observer polynomial A0 = s + a0 is free,
+    every a0 gives the same reference following, so the matching gains form a line Θ*(a0)."""
+    wm2, zw2 = Km / Mm, Dm / Mm
+    r1 = a0 + zw2 - C / M
+    s0 = M * (wm2 + a0 * zw2 - K / M - r1 * C / M)
+    s1 = M * (a0 * wm2 - r1 * K / M)
+    dK, dC = K - Kd, C - Cd
+    th = np.array([r1 - a0, s0, s1, M * wm2 - dK - r1 * dC, a0 * M * wm2 - r1 * dK])
+    v = np.array([0.0, M * zw2 - C, M * wm2 - K, -dC, M * wm2 - dK])
+    return th, v
+
+
+def nearest_star(th, star, v, scale):
+    """Distance (scaled by the nominal |Θ|) from Θ to the line Θ* + c·v, the nearest point and its a0 shift."""
+    d, vs = (th - star) / scale, v / scale
+    c = float(d @ vs / (vs @ vs))
+    return float(np.linalg.norm(d - c * vs)), star + c * v, c
+
+
+def ch3_adaptation(ctx) -> ItemOutput:
+    import matplotlib.pyplot as plt
+
+    res = run_each(ctx, ctx.variants("thesis_ch3_adaptation"), "thesis_ch3_adaptation")
+    ts = {v: r.ts for v, r in res.items()}
+    ad, na = ts["adaptive"], ts["nonadaptive"]
+    ref = ad["ctrl.ref_x"].to_numpy()
+    t = ad.t.to_numpy()
+    edges = (0, 5, 10, 20, 40, 60)
+
+    def fol(name, a, b, r=ref):
+        x = ts[name]
+        return rms((x.body_z.to_numpy() - r)[win(x, a, b)])
+
+    star, v = theta_star(250.0, 5000.0, 250.0)
+    scale = np.abs(star)
+    th = np.stack([ad[f"ctrl.theta.{k}"].to_numpy() for k in range(5)], 1)
+    at = {T: int(min(np.searchsorted(t, T), len(t) - 1)) for T in (0, 10, 20, 60)}
+    dist = {T: nearest_star(th[i], star, v, scale) for T, i in at.items()}
+    d0, dend = dist[0][0], dist[60][0]
+    rel_end = th[at[60]] / dist[60][1] - 1
+    # excitation: eigenvalues of the normalised information matrix of the scaled regressor (last 30 s)
+    m = win(ad, 30, 60)
+    psi = np.stack([ad[f"ctrl.phi.{k}"].to_numpy()[m] for k in range(5)], 1) * scale
+    info = (psi.T / np.sum(psi ** 2, 1)) @ psi / len(psi)
+    lam, vec = np.linalg.eigh(info)
+    f = {k: [fol(k, a, b) for a, b in zip(edges[:-1], edges[1:])] for k in ("adaptive", "nonadaptive", "passive")}
+    ref_d = ts["drift_adaptive"]["ctrl.ref_x"].to_numpy()
+    fd = {k: fol(k, 10, 60, ref_d) for k in ("drift_adaptive", "drift_nonadaptive", "drift_passive")}
+    lev = {k: mean(ts[k], "body_z", 30, 50) for k in ("drift_adaptive", "drift_nonadaptive", "drift_passive")}
+    th_only = fol("thetad_only", 5, 60)
+    ok = f["adaptive"][-1] < 0.1 * f["adaptive"][0] and f["adaptive"][-1] < 0.1 * f["nonadaptive"][-1]
+    claims = [
+        Claim("adaptation from wrong initial gains (every Θ entry 30 % off; printed structure and law, γ = 300)",
+              "gains move from their initial values (Fig. 3.8); stable tracking within 10 s",
+              "RMS(body − reference) per window 0–5, 5–10, 10–20, 20–40, 40–60 s: adaptive "
+              + ", ".join(f"{x * 1000:.2f}" for x in f["adaptive"]) + " mm; adaptation off (same start) "
+              + ", ".join(f"{x * 1000:.2f}" for x in f["nonadaptive"]) + f" mm; passive {f['passive'][-1] * 1000:.1f} mm",
+              "reproduced" if ok else "not",
+              "within 10 s the error is 2.2× smaller, below 0.2 mm from ≈ 15 s on"),
+        Claim("Θ moves toward the matching gains Θ*", "updated to \"some required values\" (Fig. 3.8)",
+              f"scaled distance to the matching line Θ*(a0) {d0:.2f} at 0 s → {dist[10][0]:.2f} at 10 s → "
+              f"{dend:.2f} at 60 s; at 60 s per entry (r1 − a0, s0, s1, t0, t1) "
+              + ", ".join(f"{x:+.0%}" for x in rel_end),
+              "partly", "the rest lies in a weakly excited direction: eigenvalues of the normalised information "
+              "matrix " + ", ".join(f"{x:.1e}" for x in lam) + "; the smallest is the observer pole a0 "
+              "(exactly unidentifiable: every a0 gives the same following)"),
+        Claim("mode I stiffness/damping drifts (K −20 % over 10–50 s, C −50 % at 30 s: sizes ours)",
+              "robust to K(t), C(t) (Figs. 2.7–2.8, 3.6)",
+              f"RMS(body − reference) 10–60 s: adaptive {fd['drift_adaptive'] * 1000:.2f} mm, adaptation off "
+              f"{fd['drift_nonadaptive'] * 1000:.2f} mm, passive {fd['drift_passive'] * 1000:.1f} mm; mean level 30–50 s "
+              f"{lev['drift_adaptive'] * 1000:.1f} / {lev['drift_nonadaptive'] * 1000:.1f} / {lev['drift_passive'] * 1000:.0f} mm",
+              "partly", "with our θ_d (the spring's lost static share would sag the printed structure); the "
+              "error is the level lag of θ_d, and adapting Θ does not change it"),
+        Claim("why the load-step scenario's wrong start never adapted", "—",
+              f"all gains zero, adaptation off, fast θ_d (γ_d = 20000): following {th_only * 1000:.2f} mm",
+              "n.a.", "the fast static-load law is a high-gain integral action on ε that follows with any Θ"),
+    ]
+    fig, ax = plt.subplots(3, 1, figsize=(7.5, 7.5), sharex=True)
+    for k, s_ in (("passive", "g-"), ("nonadaptive", "b-"), ("adaptive", "r-")):
+        e = ts[k].body_z.to_numpy() - ref
+        ax[0].plot(ts[k].t, ts[k].body_z * 1000, s_, lw=0.6, label=k)
+        ax[1].semilogy(ts[k].t, np.abs(e) * 1000 + 1e-4, s_, lw=0.5)
+    ax[0].plot(t, ref * 1000, "k:", lw=0.8, label="reference")
+    ax[0].set_ylim(-25, 25)
+    ax[0].set_ylabel("body x (mm)")
+    ax[0].legend(fontsize=7, ncol=4)
+    ax[1].set_ylabel("|body − reference| (mm)")
+    ax[1].set_ylim(1e-3, 100)
+    for k in range(5):
+        ax[2].plot(t, th[:, k] / star[k] - 1, lw=0.8, label=("r1−a0", "s0", "s1", "t0", "t1")[k])
+    ax[2].set_ylabel("Θ / Θ*(a0 = 2) − 1")
+    ax[2].set_xlabel("time (s)")
+    ax[2].legend(fontsize=7, ncol=5)
+    fig.suptitle("Thesis Ch. 3 (Figs. 3.6–3.9): adaptation from 30 % wrong gains, printed structure", fontsize=9)
+    fig.tight_layout()
+    key = {"follow_adaptive_40_60": (f["adaptive"][-1], 1e-3), "follow_nonadaptive_40_60": (f["nonadaptive"][-1], 1e-3),
+           "follow_adaptive_0_5": (f["adaptive"][0], 1e-3), "theta_dist_60": (dend, 0.05),
+           "drift_follow_adaptive": (fd["drift_adaptive"], 1e-3)}
     return ItemOutput(claims, key=key, figure=fig, notes=[HALF_NOTE])
 
 
@@ -544,6 +649,8 @@ SOURCES.register("thesis")(Source(
     "thesis", "Vallurupalli (PhD thesis, 1996): adaptive active suspensions, Ch. 3–7",
     "docs/reproductions/vallurupalli_thesis_1996.md",
     [Item("ch3_load_step", "Ch. 3, Figs. 3.6–3.10: continuous MRAC, +150 kg load step", ch3_load_step),
+     Item("ch3_adaptation", "Ch. 3, Figs. 3.6–3.9: adaptation from wrong initial gains; mode I stiffness/damping drifts",
+          ch3_adaptation),
      Item("ch4_load_step", "Ch. 4, Figs. 4.4–4.8: discrete MRAC with delay, +150 kg load step", ch4_load_step),
      Item("ch5", "Ch. 5: stochastic optimal control vs MRAC (nominal; time-varying load and stiffness)", ch5),
      Item("ch6", "Ch. 6: 2-DOF MDOF adaptive control on bumps and a random road", ch6),
