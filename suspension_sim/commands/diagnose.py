@@ -71,6 +71,9 @@ def register(app: typer.Typer) -> None:
         dedupe: bool = typer.Option(False, "--dedupe", help="repair: drop duplicate time stamps"),
         resample: bool = typer.Option(False, "--resample", help="repair: resample a non-uniform time base"),
         demean: bool = typer.Option(False, "--demean", help="subtract the training record's channel means"),
+        input_hold: str = typer.Option("linear", "--input-hold",
+                                       help="the inputs between samples: linear | bandlimited (low-passed before "
+                                            "sampling, e.g. a generator's reconstruction filter) | zoh"),
         no_confirm: bool = typer.Option(False, "--no-confirm", help="skip the MuJoCo re-simulation of the fitted model"),
         no_plausibility: bool = typer.Option(False, "--no-plausibility",
                                              help="fit even when the units/scales look wrong for the model (warn only)"),
@@ -105,7 +108,7 @@ def register(app: typer.Typer) -> None:
                       test=[str(p) for p in test] if test else None, floors=floors,
                       candidates=[c.strip() for c in candidates.split(",")] if candidates else None,
                       max_effects=max_effects, rows=row_sel, test_rows=test_row_sel, nan=nan, sort=sort,
-                      dedupe=dedupe, resample=resample, demean=demean, confirm=not no_confirm,
+                      dedupe=dedupe, resample=resample, demean=demean, confirm=not no_confirm, input_hold=input_hold,
                       plausibility=not no_plausibility, log=lambda m: console.print(m, highlight=False, markup=False))
             console.print(str(rep['verdict']), style="bold", markup=False, highlight=False)
             console.print(f"report: {out / 'report.html'}  model: {out / 'model.fitted.yaml'}", markup=False,

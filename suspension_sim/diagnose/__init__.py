@@ -19,19 +19,22 @@ from pathlib import Path
 def diagnose(data, model, out, *, mapping=None, fs=None, split: float = 0.7, test=None, floors=None,
              candidates=None, max_effects: int = 3, rows=None, test_rows=None, nan: str = "error", sort=False,
              dedupe=False, resample=False, confirm: bool = True, plots: bool = True, log=None,
-             screen_samples: int = 20000, test_skip=None, demean: bool = False, plausibility: bool = True) -> dict:
+             screen_samples: int = 20000, test_skip=None, demean: bool = False, plausibility: bool = True,
+             input_hold: str = "linear") -> dict:
     """Run the whole workflow; returns the report dict (also written to ``out/report.json``).
 
     ``data``/``test``: file path(s) or :class:`~.io.Record`; ``model``: MODEL.yaml path or dict;
     ``floors``: {channel: noise/repeatability floor in channel units} overriding the estimate;
-    ``plausibility=False`` fits even when :mod:`.plausibility` suspects the units (warnings only)."""
+    ``plausibility=False`` fits even when :mod:`.plausibility` suspects the units (warnings only);
+    ``input_hold``: what the measured inputs did between their samples (``linear``, ``bandlimited``, ``zoh``:
+    :func:`.datafile.reconstruct`)."""
     from .io import Record, load_record
     from .model import load_model
     from .report import build_report
     from .select import Selector
 
     spec = load_model(model)
-    kw = dict(mapping=mapping, fs=fs, nan=nan, sort=sort, dedupe=dedupe, resample=resample)
+    kw = dict(mapping=mapping, fs=fs, nan=nan, sort=sort, dedupe=dedupe, resample=resample, hold=input_hold)
     rec = data if isinstance(data, Record) else load_record(data, spec.kind, rows=rows, **kw)
     trec = None
     if test is not None:

@@ -74,7 +74,7 @@ class Problem:
         if eng is None:
             effects = [(e.label, e.type, e.corners, e.fixed) for e in spec.effects]
             eng = self._engines[key] = Engine(self.kind, self.inputs, self.dt, effects, spec.P, lag=spec.lag,
-                                              max_dt=self.max_dt)
+                                              max_dt=self.max_dt, hold=self.rec.hold)
         return eng
 
     def simulate(self, spec: ModelSpec, P: dict, a: int = 0, b: int | None = None) -> np.ndarray:

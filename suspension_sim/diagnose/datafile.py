@@ -60,3 +60,63 @@ def numeric_column(series, column: str, source: str):
             if v.strip().lower() not in ("nan", "na", "n/a", "null", "none", "-"):
                 raise ScenarioError(f"column {column!r}: {v[:40]!r} at row {i} is not a number", source=source)
     return vals.to_numpy(dtype=float)
+
+
+# ------------------------------------------------------------------------------------------------------
+# the measured inputs between their samples
+# ------------------------------------------------------------------------------------------------------
+HOLDS = ("linear", "bandlimited", "zoh")
+SINC_HALF_WIDTH = 32  # samples each side of a band-limited interpolation (Blackman-windowed sinc)
+
+
+def reconstruct(u, dt: float, t, hold: str = "linear"):
+    """The sampled signal ``u`` (sample k at time k·dt) at times ``t`` between and beyond its samples.
+
+    ``hold`` says what the signal did between the samples:
+
+    - ``linear``: straight lines between the samples (the default);
+    - ``bandlimited``: the band-limited signal the samples were taken from (Shannon reconstruction with a
+      Blackman-windowed sinc of ±32 samples; the right choice for a signal that was low-pass filtered before
+      it was sampled, or generated through a reconstruction filter, as the Silverbox input is);
+    - ``zoh``: held constant from one sample to the next (a digital command through a DAC without a filter).
+
+    Before the first and after the last sample the end values are held."""
+    u = np.ascontiguousarray(u, float)
+    x = np.asarray(t, float) / dt
+    if hold == "linear":
+        return np.interp(x, np.arange(len(u)), u)
+    if hold == "zoh":
+        return u[np.clip(np.floor(x + 1e-9).astype(np.int64), 0, len(u) - 1)]
+    if hold == "bandlimited":
+        return _sinc_interp(u, np.ascontiguousarray(x), SINC_HALF_WIDTH)
+    raise ScenarioError(f"unknown input hold {hold!r} (one of {', '.join(HOLDS)})")
+
+
+def _sinc_interp_py(u, x, K):
+    n = u.shape[0]
+    out = np.empty(x.shape[0])
+    for i in range(x.shape[0]):
+        xi = x[i]
+        n0 = int(np.floor(xi))
+        frac = xi - n0
+        if frac < 1e-12:  # on a sample
+            out[i] = u[min(max(n0, 0), n - 1)]
+            continue
+        acc = 0.0
+        wsum = 0.0
+        for m in range(-K + 1, K + 1):
+            d = frac - m  # distance from sample n0 + m, in samples
+            w = np.sin(np.pi * d) / (np.pi * d) * (0.42 + 0.5 * np.cos(np.pi * d / K) + 0.08 * np.cos(2 * np.pi * d / K))
+            j = min(max(n0 + m, 0), n - 1)
+            acc += w * u[j]
+            wsum += w
+        out[i] = acc / wsum  # normalised: a constant signal stays exactly constant
+    return out
+
+
+try:
+    import numba as _nb
+
+    _sinc_interp = _nb.njit(cache=True)(_sinc_interp_py)
+except ImportError:  # pragma: no cover
+    _sinc_interp = _sinc_interp_py

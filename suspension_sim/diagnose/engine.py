@@ -16,9 +16,10 @@ How a parameter set is simulated:
   ride height shows it).  Geometry (axle distances, tracks) rebuilds the plant;
 - the effects and the actuator are rebuilt per run from each car's parameters (their kernels run inside the
   compiled loop);
-- the measured road of each corner is the road under that wheel (interpolated linearly to the physics step);
-  the measured force input reaches the actuator as ``gain·u(t − delay) + offset`` (interpolated, so the delay
-  is continuous; the ideal actuator's own ``delay`` is whole physics steps and shared by an ensemble);
+- the measured road of each corner is the road under that wheel, and the measured force input reaches the
+  actuator as ``gain·u(t − delay) + offset``, both reconstructed between their samples at the physics steps
+  as the record's ``hold`` says (linear by default, or band-limited: :func:`.datafile.reconstruct`; the delay
+  is continuous, while the ideal actuator's own ``delay`` is whole physics steps and shared by an ensemble);
 - the run starts at rest at equilibrium.
 
 The damper element (``model: damper``) has no vehicle: its force is the effects' kernels evaluated at the
@@ -134,7 +135,7 @@ class Engine:
     (n_sets, n_samples, n_channels) in the order of :attr:`channels`."""
 
     def __init__(self, kind: str, inputs: dict, dt_rec: float, effects: list, vehicle_base: dict,
-                 lag: bool = False, max_dt: float = MAX_DT):
+                 lag: bool = False, max_dt: float = MAX_DT, hold: str = "linear"):
         self.kind = kind
         self.inputs = inputs
         self.dt_rec = float(dt_rec)
@@ -144,6 +145,8 @@ class Engine:
         self.slots = _slots(kind, self.effects)
         self.vehicle_base = dict(vehicle_base)
         self.lag = lag
+        self.hold = hold  # the inputs between their samples (datafile.reconstruct)
+        self._held: dict = {}
         self.sub = max(1, int(np.ceil(self.dt_rec / max_dt - 1e-9)))
         self.dt = self.dt_rec / self.sub
         self.channels = output_names(kind)
@@ -317,14 +320,13 @@ class Engine:
         ns = sim.n_steps
         if self.has_force or any(float(Pd.get("input.offset", 0.0)) != 0.0 for Pd in psets):
             tk = np.arange(ns) * self.dt
-            tr = np.arange(self.N) * self.dt_rec
             tab = np.empty((n, ns, self.nc))
             for i, Pd in enumerate(psets):
                 g = float(Pd.get("input.gain", 1.0))
                 o = float(Pd.get("input.offset", 0.0))
                 d = float(Pd.get("input.delay", 0.0))
                 for c in range(self.nc):
-                    tab[i, :, c] = g * np.interp(tk - d, tr, self.force[:, c]) + o
+                    tab[i, :, c] = g * self._at("force", c, tk - d) + o
             sim.controller = MeasuredInput(tab, sim.cctx)
         else:
             from suspension_sim.controllers.passive import Passive
@@ -333,8 +335,7 @@ class Engine:
 
         # road per corner, at the physics steps
         tk = np.arange(ns + 2) * self.dt - self.dt
-        tr = np.arange(self.N) * self.dt_rec
-        zr = np.stack([np.interp(tk, tr, self.road[:, c]) for c in range(self.nc)], axis=1)  # (ns+2, nc)
+        zr = np.stack([self._at("road", c, tk) for c in range(self.nc)], axis=1)  # (ns+2, nc)
 
         def chunk(k0, k1, zr=zr, n=n):
             z = zr[k0 + 1:k1 + 1]
@@ -343,6 +344,19 @@ class Engine:
                     np.ascontiguousarray(np.broadcast_to(zd[None], (n,) + zd.shape)))
 
         sim.road_chunk = chunk  # the loops read the road through System.road_chunk
+
+    def _at(self, name: str, c: int, t):
+        """Measured input ``name`` ("force" or "road") of corner ``c`` at times ``t`` (its samples are at
+        k·dt_rec), reconstructed per :attr:`hold`; cached (the same times recur in every run)."""
+        from .datafile import reconstruct
+
+        key = (name, c, t.shape[0], float(t[0]), float(t[-1]))
+        hit = self._held.get(key)
+        if hit is None:
+            if len(self._held) > 16:
+                self._held.clear()
+            hit = self._held[key] = reconstruct(getattr(self, name)[:, c], self.dt_rec, t, self.hold)
+        return hit
 
     # --------------------------------------------------------------------------------------------------
     def run(self, psets: list[dict], n_samples: int | None = None, effects: list | None = None) -> np.ndarray:

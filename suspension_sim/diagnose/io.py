@@ -73,6 +73,7 @@ class Record:
     outputs: dict[str, np.ndarray]
     source: str = ""
     notes: list[str] = field(default_factory=list)
+    hold: str = "linear"  # the inputs between their samples: linear, bandlimited or zoh (datafile.reconstruct)
 
     @property
     def fs(self) -> float:
@@ -87,7 +88,7 @@ class Record:
 
     def slice(self, a: int, b: int) -> "Record":
         return Record(self.kind, self.t[a:b] - 0.0, {k: v[a:b] for k, v in self.inputs.items()},
-                      {k: v[a:b] for k, v in self.outputs.items()}, self.source, list(self.notes))
+                      {k: v[a:b] for k, v in self.outputs.items()}, self.source, list(self.notes), self.hold)
 
 
 def parse_map(items: list[str] | None) -> dict[str, tuple[str, float]]:
@@ -143,8 +144,14 @@ def read_table(path: str | Path) -> pd.DataFrame:
 
 def load_record(paths, kind: str, mapping: dict[str, tuple[str, float]] | None = None, fs: float | None = None,
                 time_column: str = "time", nan: str = "error", sort: bool = False, dedupe: bool = False,
-                resample: bool = False, rows: tuple[int, int] | None = None) -> Record:
-    """Read one or more files into a :class:`Record` of model kind ``kind`` (see module doc)."""
+                resample: bool = False, rows: tuple[int, int] | None = None, hold: str = "linear") -> Record:
+    """Read one or more files into a :class:`Record` of model kind ``kind`` (see module doc).  ``hold``: what
+    the inputs did between their samples (``linear``, ``bandlimited``, ``zoh``; see
+    :func:`.datafile.reconstruct`)."""
+    from .datafile import HOLDS
+
+    if hold not in HOLDS:
+        raise ScenarioError(f"unknown input hold {hold!r} (one of {', '.join(HOLDS)})")
     if kind not in VOCAB:
         raise ScenarioError(f"unknown model kind {kind!r} (diagnose knows {', '.join(VOCAB)})")
     paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
@@ -258,7 +265,7 @@ def load_record(paths, kind: str, mapping: dict[str, tuple[str, float]] | None =
     if kind == "damper" and "vel" not in ins:
         ins["vel"] = np.gradient(ins["disp"], tcol)
         notes.append("damper velocity derived from displacement (central differences)")
-    return Record(kind, tcol, ins, {k: chans[k] for k in outs}, src, notes)
+    return Record(kind, tcol, ins, {k: chans[k] for k in outs}, src, notes, hold)
 
 
 def record_from_arrays(kind: str, t, inputs: dict, outputs: dict, source: str = "arrays") -> Record:
