@@ -99,8 +99,87 @@ def case_beyond(seed):
     return _qc(d, QC_OUT), {"model": "quarter_car", "params": QC_KNOWN}, set(), d
 
 
+# ---- a case the project's generator did not shape: its own vehicle, excitation, noise colours and offsets ----
+SUV = {"sprung_mass": 520.0, "unsprung_mass": 72.0, "spring_stiffness": 38000.0, "damping": 2600.0,
+       "tire_stiffness": 300000.0, "tire_damping": 0.0}
+
+
+def _bumps_and_chirp(rng, t):
+    """A road of discrete half-sine bumps and potholes (2–5 cm, 0.06–0.25 s long, 0.5–1.4 s apart) on a
+    4 mm chirp from 0.5 to 20 Hz: not a random road."""
+    T = t[-1]
+    r = 0.004 * np.sin(2 * np.pi * (0.5 * t + 0.5 * (20 - 0.5) / T * t ** 2)) * np.clip(t / 0.5, 0, 1)
+    tb = 0.6
+    while tb < T - 0.5:
+        h = rng.uniform(0.02, 0.05) * rng.choice([1, 1, -1])
+        L = rng.uniform(0.06, 0.25)
+        m = (t >= tb) & (t < tb + L)
+        r[m] += h * np.sin(np.pi * (t[m] - tb) / L) ** 2
+        tb += L + rng.uniform(0.5, 1.4)
+    return r
+
+
+def _pink(rng, n):
+    """Noise with a 1/f power spectrum (FFT-shaped), unit std."""
+    f = np.fft.rfftfreq(n)
+    X = (rng.standard_normal(len(f)) + 1j * rng.standard_normal(len(f))) / np.sqrt(np.maximum(f, f[1]))
+    x = np.fft.irfft(X, n)
+    return x / np.std(x)
+
+
+def _brown(rng, n, pole=0.998):
+    """Noise with a 1/f² power spectrum above ~0.3 Hz at 1 kHz (a leaky integral of white noise), unit std."""
+    x = lfilter([1.0], [1, -pole], rng.standard_normal(n))
+    return x / np.std(x)
+
+
+def suv_bumps(seed, stop=True, duration=10.0, fs=1000.0):
+    """Its own quarter car (an SUV corner, written here with scipy, sharing nothing with truth.py), driven by
+    bumps and a chirp; a jounce bumper in compression only (gap 2.5 cm, 150 kN/m; the library's stop is
+    symmetric); pink accelerometer noise (2 %), brown travel noise (3 %), a travel sensor zeroed 8 mm off
+    and a −0.2 m/s² body-accelerometer bias."""
+    from scipy.integrate import solve_ivp
+
+    rng = np.random.default_rng(seed + 7)
+    t = np.arange(int(round(duration * fs))) / fs
+    r = _bumps_and_chirp(rng, t)
+    p = SUV
+    ms, mu, k, c, kt = p["sprung_mass"], p["unsprung_mass"], p["spring_stiffness"], p["damping"], p["tire_stiffness"]
+    gap, k_stop = 0.025, (1.5e5 if stop else 0.0)
+
+    def rhs(tt, x):
+        zs, vs, zu, vu = x
+        s, v = zs - zu, vs - vu
+        F = -k * s - c * v + (k_stop * (-gap - s) if s < -gap else 0.0)
+        return [vs, F / ms, vu, (-F + kt * (np.interp(tt, t, r) - zu)) / mu]
+
+    sol = solve_ivp(rhs, (0, t[-1]), [0, 0, 0, 0], t_eval=t, method="DOP853", rtol=1e-8, atol=1e-11,
+                    max_step=1.0 / fs)
+    X = sol.y
+    acc = np.array([rhs(tt, X[:, i]) for i, tt in enumerate(t)])
+    clean = {"body_acc": acc[:, 1], "wheel_acc": acc[:, 3], "susp_travel": X[0] - X[2]}
+    n = len(t)
+    d = {"time": t, "road": r, "_clean": clean}
+    d["body_acc"] = clean["body_acc"] + 0.02 * np.std(clean["body_acc"]) * _pink(rng, n) - 0.2
+    d["wheel_acc"] = clean["wheel_acc"] + 0.02 * np.std(clean["wheel_acc"]) * _pink(rng, n)
+    d["susp_travel"] = clean["susp_travel"] + 0.03 * np.std(clean["susp_travel"]) * _brown(rng, n) + 0.008
+    d["_stop_share"] = float(np.mean(clean["susp_travel"] < -gap))
+    model = {"model": "quarter_car", "params": {**SUV, "damping": "free"}, "position_zero": "measured"}
+    return _qc(d, QC_OUT), model, ({"bump_stop"} if stop else set()), d
+
+
+def case_suv_bumps(seed):
+    return suv_bumps(seed, stop=True)
+
+
+def case_suv_null(seed):
+    """The same car, road and noises with nothing hidden."""
+    return suv_bumps(seed, stop=False)
+
+
 CASES = {"compound": case_compound, "heavier": case_heavier, "lag": case_lag, "null_coloured": case_null_coloured,
-         "vehicle2": case_vehicle2, "half_axle": case_half_axle, "beyond": case_beyond}
+         "vehicle2": case_vehicle2, "half_axle": case_half_axle, "beyond": case_beyond,
+         "suv_bumps": case_suv_bumps, "suv_null": case_suv_null}
 
 
 def run_case(name, seed=0, out=None, log=None):
@@ -114,7 +193,14 @@ def run_case(name, seed=0, out=None, log=None):
     a = np.sqrt(np.mean(np.square(list(rep["nrmse"]["after"]["test"].values()))))
     worse = [c for c in rep["nrmse"]["after"]["test"]
              if rep["nrmse"]["after"]["test"][c] > rep["nrmse"]["before"]["test"][c] + rep["noise_floor"][c]["nrmse"]]
+    a_, b_ = rep["split"]["test_samples"]
+    chans = list(rep["nrmse"]["after"]["test"])
+    true_floor = {c: float(np.std(d[c][a_:b_] - d["_clean"][c][a_:b_]) / np.std(d[c])) for c in chans
+                  if c in d.get("_clean", {})}
+    est_floor = {c: rep["noise_floor"][c]["nrmse"] for c in chans}
     return {"case": name, "expected": sorted(expect), "named": sorted(named), "exact": named == expect,
+            "per_channel": {c: (rep["nrmse"]["before"]["test"][c], rep["nrmse"]["after"]["test"][c]) for c in chans},
+            "floor_true": true_floor, "floor_est": est_floor,
             "false": sorted(named - expect), "before": b, "after": a, "shrink": 1 - a / b,
             "unexplained": rep.get("unexplained_x_floor"), "proposal": (rep.get("proposal") or {}).get("equation"),
             "worse_channels": worse, "params": {e["name"]: e["parameters"] for e in rep["effects"]}, "wall": wall,

@@ -48,6 +48,50 @@ def noise_floor(y: np.ndarray, fs_hz: float) -> float:
     return float(np.sqrt(np.median(p[band]) * fs_hz / 2))
 
 
+NOISE_LIKE = 0.2  # a residual with at most this share of its power predictable (inputs, other channels) is noise
+
+
+def _cross_spectra(X: np.ndarray, nper: int):
+    """Cross-spectral matrices S[f, i, j] of the columns of X (Welch: Hann, 50 % overlap, mean removed) and the
+    number K of segments averaged."""
+    nper = int(min(nper, len(X)))
+    w = np.hanning(nper)
+    F = np.stack([np.fft.rfft((X[s:s + nper] - X[s:s + nper].mean(axis=0)) * w[:, None], axis=0)
+                  for s in range(0, len(X) - nper + 1, nper // 2)])
+    return np.einsum("kfi,kfj->fij", F, F.conj()) / len(F), len(F)
+
+
+def incoherent_noise(resid: np.ndarray, inputs: np.ndarray | None = None, nper: int = 256) -> list:
+    """Per residual channel: (std of the part of the residual that no linear filter of the inputs and of the
+    other channels' residuals predicts, share of its power that they do predict).
+
+    Sensor noise is independent between channels and of the inputs, whatever its colour.  A force missing
+    from the model shows in every channel's residual through the same dynamics (and is driven by the
+    inputs), so it is predictable from them.  Per frequency, the conditioned spectrum
+    S_ii − S_io·S_oo⁻¹·S_oi is what no linear filter of the others predicts; with K segments and p
+    predictors its expectation for pure noise is (K − p)/K of the truth, which is corrected."""
+    R = np.asarray(resid, float)
+    cols = [R] + ([np.asarray(inputs, float).reshape(len(R), -1)] if inputs is not None and np.size(inputs) else [])
+    X = np.column_stack(cols)
+    X = X[:, [j for j in range(X.shape[1]) if j < R.shape[1] or np.std(X[:, j]) > 0]]
+    S, K = _cross_spectra(X, nper)
+    out = []
+    for i in range(R.shape[1]):
+        o = [j for j in range(X.shape[1]) if j != i and np.std(X[:, j]) > 0]
+        Sii = S[:, i, i].real
+        pred = np.zeros_like(Sii)
+        if o:
+            Soo, Sio = S[:, o][:, :, o], S[:, i, o]
+            try:
+                pred = np.einsum("fo,fo->f", Sio, np.linalg.solve(Soo, Sio.conj()[..., None])[..., 0]).real
+            except np.linalg.LinAlgError:
+                pass
+        cond = np.maximum(Sii - pred, 0.0) * K / max(K - len(o), 1)
+        share = min(float(np.sum(cond)) / max(float(np.sum(Sii)), 1e-300), 1.0)
+        out.append((float(np.sqrt(share * np.var(R[:, i]))), 1.0 - share))
+    return out
+
+
 @dataclass
 class Trial:
     name: str
@@ -197,6 +241,30 @@ class Selector:
             out[c]["nrmse"] = out[c]["value"] / float(self.prob.scale[i])
         return out
 
+    def recolour(self, floors: dict, fr: FitResult) -> list:
+        """Raise the estimated floor of a channel whose residual under the fit ``fr`` (training part) is noise:
+        at most ``NOISE_LIKE`` of its power predictable from the inputs and the other channels' residuals
+        (:func:`incoherent_noise`).  The top-band estimate assumes white noise and reads coloured noise as
+        error; noise is what nothing in the record predicts, whatever its colour.  Needs two or more output
+        channels (with one, a nonlinear model error would pass as noise).  Returns the channels raised."""
+        chans = self.prob.channels
+        if len(chans) < 2:
+            return []
+        a, b = self.train
+        sim = self.prob.simulate(fr.spec, fr.P)[a:b] + (fr.offsets if fr.offsets is not None else 0.0)
+        U = [u[a:b] for u in self.rec.inputs.values()]
+        est = incoherent_noise(sim - self.prob.Y[a:b], np.column_stack(U) if U else None)
+        raised = []
+        for i, c in enumerate(chans):
+            std, predictable = est[i]
+            if c in self.user_floors or predictable > NOISE_LIKE or std <= floors[c]["value"]:
+                continue
+            floors[c] = {"value": std, "source": "estimated (residual not predictable from the inputs or the "
+                                                 "other channels: coloured noise)",
+                         "nrmse": std / float(self.prob.scale[i])}
+            raised.append(c)
+        return raised
+
     def _test_errors(self, fr: FitResult):
         tp = self.test_prob or self.prob
         sim = tp.simulate(fr.spec, fr.P) + (fr.offsets if fr.offsets is not None else 0.0)
@@ -253,7 +321,6 @@ class Selector:
         T = {}
         t0 = time.perf_counter()
         floors = self.floors()
-        floor_n = np.array([floors[c]["nrmse"] for c in self.prob.channels])
         a, b = self.train
         self.log(f"calibrating the nominal model ({', '.join(self.spec.names()) or 'nothing free'}) on "
                  f"{b - a} training samples")
@@ -262,6 +329,9 @@ class Selector:
         if bs < b:
             nominal = fit(self.prob, _with_fit(self.spec, nominal), a, b, max_nfev=30)
         T["calibrate"] = time.perf_counter() - t0
+        for c in self.recolour(floors, nominal):
+            self.log(f"noise floor of {c} raised to {floors[c]['value']:.4g}: the nominal residual is coloured noise")
+        floor_n = np.array([floors[c]["nrmse"] for c in self.prob.channels])
         current_spec = _with_fit(self.spec, nominal)
         current = nominal
         sc = _scales(self.prob, current_spec, nominal.P, b)
@@ -389,6 +459,9 @@ class Selector:
         flat_added = [(c, fr, tr) for cs, fr, tr in added for c in cs]
         D = Diagnosis(self.rec, self.prob, self.test_prob, self.train, self.test, floors, nominal, current,
                       flat_added, trials, sc, T)
+        for c in self.recolour(floors, current):
+            self.log(f"noise floor of {c} raised to {floors[c]['value']:.4g}: the final residual is coloured noise")
+        floor_n = np.array([floors[c]["nrmse"] for c in self.prob.channels])
         E = float(np.sqrt(np.mean(self._test_errors(current) ** 2)))
         fl = float(np.sqrt(np.mean(floor_n ** 2)))
         if fl > 0 and E > self.far * fl:

@@ -1,0 +1,101 @@
+"""The noise floor of `diagnose` when the sensor noise is coloured (fast: no simulation).
+
+The top-band estimate (median PSD at 60–95 % of Nyquist, taken as white) reads low-passed noise as a
+fraction of itself, so a null record looked 4× above its floor ("unexplained").  Noise is what nothing in
+the record predicts: :func:`incoherent_noise` keeps the part of each channel's residual that no linear
+filter of the inputs and the other channels' residuals predicts, and ``Selector.recolour`` uses it when the
+residual is noise."""
+from __future__ import annotations
+
+import types
+
+import numpy as np
+from scipy.signal import lfilter
+
+from suspension_sim.diagnose.select import NOISE_LIKE, Selector, incoherent_noise, noise_floor
+
+FS = 1000.0
+N = 6000
+
+
+def _coloured(rng, sd, pole=0.9):
+    c = lfilter([1.0], [1, -pole], rng.standard_normal(N))
+    return sd * c / np.std(c)
+
+
+def _road(rng):
+    return lfilter([0.02], [1, -0.98], rng.standard_normal(N))
+
+
+def test_coloured_noise_floor_is_its_full_size_not_its_top_band():
+    rng = np.random.default_rng(1)
+    sds = [0.03, 0.4, 2e-4]
+    R = np.column_stack([_coloured(rng, s) for s in sds])
+    R[:, 0] += 0.3  # an accelerometer bias
+    est = incoherent_noise(R, _road(rng))
+    for (std, predictable), sd, col in zip(est, sds, R.T):
+        assert abs(std / sd - 1) < 0.1, (std, sd)
+        assert predictable < NOISE_LIKE
+        assert noise_floor(col, FS) < 0.5 * sd  # what the white estimate made of it (the 4.2× verdict)
+
+
+def test_a_missing_force_is_not_mistaken_for_noise():
+    """One force missing from the model shows in every channel through the dynamics: predictable from the
+    other channels' residuals (even when it is a nonlinear function of the input)."""
+    rng = np.random.default_rng(2)
+    u = _road(rng)
+    f = np.sign(np.gradient(u)) * 100.0 + 2e5 * np.maximum(u - 0.02, 0)  # friction + a stop: not linear in u
+    R = np.column_stack([lfilter([1e-3], [1, -1.9, 0.905], f), lfilter([1e-2, -1e-2], [1, -0.5], f),
+                         lfilter([1e-6], [1, -1.95, 0.952], f)])
+    R += 0.05 * np.std(R, axis=0) * rng.standard_normal(R.shape)
+    for std, predictable in incoherent_noise(R, u):
+        assert predictable > 0.5
+
+
+def _selector(Y, resid, user=None):
+    """A Selector with a stand-in problem whose fitted model leaves ``resid`` on every sample."""
+    sel = Selector.__new__(Selector)
+    chans = [f"c{i}" for i in range(Y.shape[1])]
+    sel.prob = types.SimpleNamespace(channels=chans, Y=Y, scale=np.std(Y, axis=0),
+                                     simulate=lambda spec, P: Y + resid)
+    sel.rec = types.SimpleNamespace(inputs={"road": _road(np.random.default_rng(5))}, fs=FS)
+    sel.train = (0, N)
+    sel.user_floors = user or {}
+    return sel, chans
+
+
+def test_recolour_raises_a_coloured_channel_floor_and_leaves_the_rest():
+    rng = np.random.default_rng(3)
+    sds = [0.03, 0.4]
+    noise = np.column_stack([_coloured(rng, s) for s in sds])
+    Y = np.column_stack([np.sin(np.arange(N) / 50.0), np.cos(np.arange(N) / 70.0)]) + noise
+    sel, chans = _selector(Y, -noise)
+    fr = types.SimpleNamespace(spec=None, P={}, offsets=None)
+    floors = {c: {"value": noise_floor(Y[:, i], FS), "source": "estimated (PSD top band)"} for i, c in enumerate(chans)}
+    for i, c in enumerate(chans):
+        floors[c]["nrmse"] = floors[c]["value"] / sel.prob.scale[i]
+    assert all(floors[c]["value"] < 0.5 * sd for c, sd in zip(chans, sds))
+    assert sel.recolour(floors, fr) == chans
+    for c, sd in zip(chans, sds):
+        assert abs(floors[c]["value"] / sd - 1) < 0.1 and "coloured" in floors[c]["source"]
+    # a floor the user gave (repeatability) is never replaced; one output channel is not enough to tell
+    sel2, _ = _selector(Y, -noise, user={"c0": 0.001})
+    f2 = {c: dict(v, value=1e-9) for c, v in floors.items()}
+    assert sel2.recolour(f2, fr) == ["c1"] and f2["c0"]["value"] == 1e-9
+    sel3, _ = _selector(Y[:, :1], -noise[:, :1])
+    assert sel3.recolour({"c0": dict(floors["c0"], value=1e-9)}, fr) == []
+
+
+def test_recolour_keeps_the_white_floor_when_the_residual_is_model_error():
+    rng = np.random.default_rng(4)
+    u = _road(rng)
+    f = 100.0 * np.tanh(np.gradient(u) / 1e-4)
+    err = np.column_stack([lfilter([1e-3], [1, -1.9, 0.905], f), lfilter([1e-6], [1, -1.95, 0.952], f)])
+    white = 0.02 * np.std(err, axis=0) * rng.standard_normal(err.shape)
+    Y = err + white
+    sel, chans = _selector(Y, -white + err)  # the model misses the force: residual = error (+ noise)
+    sel.rec.inputs = {"road": u}
+    fr = types.SimpleNamespace(spec=None, P={}, offsets=None)
+    floors = {c: {"value": float(np.std(white[:, i])), "source": "estimated (PSD top band)",
+                  "nrmse": float(np.std(white[:, i]) / sel.prob.scale[i])} for i, c in enumerate(chans)}
+    assert sel.recolour(floors, fr) == []
