@@ -225,7 +225,10 @@ def main():
               f"{'yes' if r['exact'] else 'no'} | {', '.join(r['false']) or '—'} | {r['before']:.4f} → {r['after']:.4f} | "
               f"{100 * r['shrink']:.1f} % | {_ux(r)} | "
               f"{r['wall']:.0f} s |", flush=True)
-        print(f"<!-- {name}: {r['params']} {r['proposal'] or ''} worse: {r['worse_channels']} -->", flush=True)
+        ch = "; ".join(f"{c} {b_:.4f}→{a_:.4f} (floor {r['floor_est'][c]:.4f} est, {r['floor_true'].get(c, float('nan')):.4f} true)"
+                       for c, (b_, a_) in r["per_channel"].items())
+        print(f"<!-- {name}: {r['params']} {r['proposal'] or ''} worse: {r['worse_channels']}; {ch}; "
+              f"verdict: {r['verdict']} -->", flush=True)
 
 
 if __name__ == "__main__":
