@@ -1,7 +1,8 @@
 """Hard cases of the discrepancy workflow from the project's truth generator (benchmarks/diagnose_hard.py):
 compound effects, a heavier car with sag, an actuator lag without false friction, a null record with
 coloured noise and a sensor bias, a second vehicle and excitation, a half car with an effect on one axle,
-a law beyond the library.  Each takes minutes: marked slow."""
+a law beyond the library, and a car, road and noise colours the generator did not shape (suv_*).  Each takes
+minutes: marked slow."""
 from __future__ import annotations
 
 import sys
@@ -44,6 +45,21 @@ def test_actuator_lag_named_without_false_friction(tmp_path):
 def test_null_record_with_coloured_noise_and_bias_names_nothing(tmp_path):
     r = _run("null_coloured", tmp_path)
     assert r["named"] == [], r
+    # the floor is the coloured noise's size (the top-band estimate read it as 1/4 of itself: "4.2×")
+    assert r["unexplained"] is None, r
+    for c, f in r["floor_est"].items():
+        assert abs(f / r["floor_true"][c] - 1) < 0.25, r
+
+
+def test_own_vehicle_on_bumps_with_pink_and_brown_noise_names_the_stop(tmp_path):
+    r = _run("suv_bumps", tmp_path)
+    assert r["exact"], r
+    assert not r["worse_channels"], r
+
+
+def test_own_vehicle_on_bumps_null_names_nothing(tmp_path):
+    r = _run("suv_null", tmp_path)
+    assert r["named"] == [] and r["unexplained"] is None, r
 
 
 def test_second_vehicle_and_excitation(tmp_path):
