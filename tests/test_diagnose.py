@@ -127,6 +127,22 @@ def test_engine_matches_independent_truth_and_runs_an_ensemble():
     assert abs(sag - (-40.0 * 9.81 / 16812.0)) < 0.15 * 40.0 * 9.81 / 16812.0, sag
 
 
+def test_a_parameter_set_gives_the_same_outputs_whatever_ran_before_it():
+    """The engine reuses one MuJoCo model for every run of a structure: a run with a changed mass (which
+    recomputes MuJoCo's mass-derived constants) must not leave its inertia to the runs after it (it did: the
+    next nominal run had the heavier car's inertia with the nominal weight, 1 m/s² off in body acceleration,
+    and a search compared candidates against a current model that depended on which candidates ran before)."""
+    from suspension_sim.diagnose.engine import Engine
+
+    d = truth.simulate_truth("quarter_car", 2, 1000, {}, seed=5, road_rms=0.01, noise=0.0, outputs=["body_acc"])
+    eng = Engine("quarter_car", {"road": d["road"]}, 1e-3, [], truth.QC_NOMINAL)
+    first = eng.run([{"damping": 1000.0}])
+    for heavier in ({"sprung_mass": 330.0}, {"unsprung_mass": 45.0}):
+        assert np.abs(eng.run([{"damping": 1000.0, **heavier}]) - first).max() > 0.1
+        again = eng.run([{"damping": 1000.0}])
+        assert np.array_equal(again, first), np.abs(again - first).max()
+
+
 def test_candidates_come_from_the_registry_declarations():
     """Every registered effect with a free-parameter declaration is a candidate (no list in diagnose), the
     ideal actuator's declared parameters give actuator_lag and actuator_delay, and a half car also gets

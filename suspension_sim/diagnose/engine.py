@@ -230,6 +230,12 @@ class Engine:
         D = sim._diag
         for f, arr in D["base"].items():
             getattr(m, f)[...] = arr
+        if D.get("const_dirty"):
+            # a previous run changed a mass: MuJoCo's constants derived from the masses (dof_M0, the mass matrix
+            # of slide-joint bodies, among them) are recomputed for the base masses, or this run would keep that
+            # run's inertia with the base weight (a parameter set's result would depend on the sets run before it)
+            mujoco.mj_setConst(m, D["scratch"])
+            D["const_dirty"] = False
         mass_changed = False
         for name, (fld, idx) in D["fields"].items():
             vals = np.array([float(Pd.get(name, self.vehicle_base.get(name, np.nan))) for Pd in psets])
@@ -254,6 +260,7 @@ class Engine:
         self._sag = None
         if mass_changed:
             mujoco.mj_setConst(m, D["scratch"])
+            D["const_dirty"] = True
             # a changed mass is not re-levelled in the world (the car sags), but a run starting at rest at the
             # old ride height would drop at t = 0 and ring: the model is re-levelled (q = 0 is its new
             # equilibrium) and the static sag K⁻¹·Δg is added to the position outputs instead
