@@ -15,7 +15,8 @@ A *source* (one paper or thesis) is one module in this package that registers a 
 
 Each item runs its scenarios, returns the paper-claim / ours / verdict rows, a figure and its *key numbers*.
 The runner writes ``<out>/<source>/<item>.png`` and ``<item>.md`` and a ``README.md`` with every table, and
-checks convergence: the item runs again with every scenario's physics and control step halved, and each key
+checks convergence: the item runs again with every scenario's physics and control step both halved (the page
+states the steps each item ran at), and each key
 number must change by less than 2 % (relative to ``max(|value|, floor)``; the floor keeps a number that is
 nearly zero from failing on noise).  The verdict of the check is part of each item's table.
 """
@@ -104,6 +105,7 @@ class Context:
     def __init__(self, step_factor: float = 1.0, progress: Callable[[str, float], None] | None = None):
         self.step_factor = step_factor
         self._progress = progress or (lambda label, f: None)
+        self.steps: set[tuple[float, float]] = set()  # (physics dt, control dt) of every scenario run
 
     def scenario(self, name: str, sets: list[str] | None = None):
         """Load ``scenarios/<name>.yaml`` with ``path=value`` overrides; the step is scaled by the factor."""
@@ -142,6 +144,7 @@ class Context:
 
         groups: dict = {}
         for name, v in scenarios.items():
+            self.steps.add((float(v.sim.dt), float(v.sim.control_dt)))
             groups.setdefault(ensemble_key(v), []).append((name, v))
         out = {}
         for k, members in enumerate(groups.values()):
@@ -175,7 +178,8 @@ def fmt(x: float, digits: int = 3) -> str:
 def run_item(item: Item, converge: bool, progress=None) -> dict:
     """Run an item (and its half-step twin); returns a dict with the output, the convergence table and a
     pass flag."""
-    out = item.run(Context(1.0, progress))
+    ctx = Context(1.0, progress)
+    out = item.run(ctx)
     conv = None
     if converge and item.converge and out.key:
         half = item.run(Context(0.5, progress))
@@ -183,7 +187,14 @@ def run_item(item: Item, converge: bool, progress=None) -> dict:
         for k, (v, floor) in out.key.items():
             v2 = half.key.get(k, (float("nan"), floor))[0]
             conv.append((k, v, v2, rel_change(v, v2, floor)))
-    return {"out": out, "conv": conv}
+    return {"out": out, "conv": conv, "steps": sorted(ctx.steps)}
+
+
+def steps_text(steps) -> str:
+    """The steps an item ran at, e.g. "physics 0.5 ms, control 1 ms" (several when its scenarios differ)."""
+    def ms(x):
+        return f"{x * 1e3:g} ms"
+    return "; ".join(f"physics {ms(d)}, control {ms(c)}" for d, c in steps) or "no scenario run"
 
 
 def item_markdown(source: Source, item: Item, r: dict) -> str:
@@ -196,7 +207,8 @@ def item_markdown(source: Source, item: Item, r: dict) -> str:
     if conv is not None:
         ok = all(c[3] < CONVERGENCE_TOL for c in conv)
         md += ["", f"Step halving: {'converged' if ok else 'NOT converged'} (every key number must change by "
-                   f"less than {CONVERGENCE_TOL:.0%} when the physics and control steps are halved).", ""]
+                   f"less than {CONVERGENCE_TOL:.0%} when the physics and control steps are both halved; "
+                   f"run at {steps_text(r.get('steps', []))}).", ""]
         md.append(md_table(["key number", "step", "half step", "change"],
                             [[k, fmt(a, 4), fmt(b, 4), f"{c * 100:.2f} %"] for k, a, b, c in conv]))
     elif item.converge is False:
@@ -222,6 +234,7 @@ def summary(r: dict) -> dict:
     return {
         "claims": [c.__dict__ for c in out.claims],
         "key": {k: v for k, (v, _) in out.key.items()},
+        "steps": [list(s) for s in r.get("steps", [])],
         "convergence": None if conv is None else
         {k: {"step": a, "half_step": b, "change": c, "converged": c < CONVERGENCE_TOL} for k, a, b, c in conv},
     }
