@@ -496,9 +496,12 @@ def _run_group(good: list, sw: Sweep) -> dict:
         if sw.keep_timeseries:
             import io
 
-            buf = io.BytesIO()
-            res.timeseries.to_parquet(buf, index=False)
-            row["_timeseries"] = buf.getvalue()
+            if res.timeseries_file is not None:  # a streamed (long) run: its file, written as it ran
+                row["_timeseries"] = Path(res.timeseries_file).read_bytes()
+            else:
+                buf = io.BytesIO()
+                res.timeseries.to_parquet(buf, index=False)
+                row["_timeseries"] = buf.getvalue()
         out[run_id] = row
     return out
 

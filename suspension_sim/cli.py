@@ -92,6 +92,10 @@ def run(
         sc, sims = build(scenario, set_ or [])  # every pre-run check, for every variant, before any step
         check_disk(sims, out if out else Path("runs"), sc.outputs.timeseries, str(scenario))
         folder = prepare(out, overwrite) if out else default_out(sc.name)
+        multi = len(sims) > 1 or bool(sc.variants)
+        if sc.outputs.timeseries:  # a long run's log streams into the run folder as it runs
+            for vname, sim in sims:
+                sim.stream_paths = [folder / f".{vname if multi else 'run'}.timeseries.parquet.tmp"]
         results, diverged = {}, []
         with Progress(TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"),
                       TimeRemainingColumn(), console=err_console, disable=quiet or not sys.stderr.isatty()) as prog:
@@ -105,9 +109,10 @@ def run(
                     res = sim.run(progress=lambda f, t=task: prog.update(t, completed=f))[0]
                 except SimulationDiverged as err:  # the other variants still run and are written
                     diverged.append((vname, err.locate(str(scenario), vname)))
+                    for p in sim.stream_paths or []:
+                        Path(p).unlink(missing_ok=True)
                     continue
                 results[vname] = res
-        multi = len(sims) > 1 or bool(sc.variants)
         for vname, res in results.items():
             write_result(res, folder / vname if multi else folder, plots=sc.outputs.plots,
                          timeseries=sc.outputs.timeseries)

@@ -12,8 +12,9 @@ name               default     what it bounds
 ``yaml_depth``     64          nesting depth of a YAML file
 ``sweep_runs``     1000000     runs of one sweep (grid × lists × samples × seeds), counted before expanding
 ``steps``          2e9         physics steps of one run (duration / dt)
-``log_samples``    5e7         logged instants of one run (duration / log_dt)
-``log_gb``         8           memory of one run's (or one batch task's) log in GB (instants × channels × cars)
+``log_samples``    2e9         logged instants of one run (duration / log_dt)
+``log_gb``         8           memory of one run's (or one batch task's) log buffer in GB: the whole log when it
+                               fits in 64 MB, else one chunk (a long log streams to disk, see ``stream.py``)
 ``data_mb``        2000        size of one measured-data file for ``diagnose`` in MB
 =================  ==========  ==========================================================================
 """
@@ -29,7 +30,7 @@ DEFAULTS: dict[str, float] = {
     "yaml_depth": 64,
     "sweep_runs": 1_000_000,
     "steps": 2e9,
-    "log_samples": 5e7,
+    "log_samples": 2e9,
     "log_gb": 8.0,
     "data_mb": 2000.0,
 }
@@ -40,7 +41,7 @@ WHAT = {
     "sweep_runs": "runs in one sweep",
     "steps": "physics steps of one run (sim.duration / sim.dt)",
     "log_samples": "logged instants of one run (sim.duration / sim.log_dt)",
-    "log_gb": "log memory (GB)",
+    "log_gb": "log buffer memory (GB)",
     "data_mb": "data file size (MB)",
 }
 

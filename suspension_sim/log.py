@@ -6,31 +6,102 @@ the bump stops' gaps from the built system for the metrics and the 3D view.
 """
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pandas as pd
 
 from .channels import body_channels
 
 
+#: A log that fits in this many MB (all cars, all channels) is held whole, as one chunk; a longer one is
+#: held in chunks of at most :data:`CHUNK_S` simulated seconds (and this many MB), each handed to the
+#: logger's ``sink`` (Parquet row groups, streaming metrics) when full.  ``SUSPENSION_SIM_LOG_BUFFER_MB`` and
+#: ``SUSPENSION_SIM_LOG_CHUNK_S`` override them.
+BUFFER_MB = 64.0
+CHUNK_S = 30.0
+
+
+def log_channels_estimate(sim) -> int:
+    """An upper estimate of the logged channels per car (body dofs × 3, ~16 per corner, sensors, signals)."""
+    P = sim.plant
+    n = 3 * len(P.body_joints) + 16 * P.nc + 8
+    for ch in getattr(sim, "sensors", []):
+        try:
+            n += max(1, len(ch.sensor.labels()))
+        except Exception:  # noqa: BLE001 - an estimate
+            n += P.nc
+    return n + 4 * P.nc
+
+
+def buffer_rows(sim, n_log: int) -> int:
+    """Rows (log instants) the log buffer of ``sim`` holds: ``n_log`` when the whole log fits in
+    :data:`BUFFER_MB`, else a chunk (at least 2 rows)."""
+    budget = float(os.environ.get("SUSPENSION_SIM_LOG_BUFFER_MB") or BUFFER_MB) * 1e6
+    row = 8.0 * sim.plant.n * log_channels_estimate(sim)
+    if n_log * row <= budget:
+        return n_log
+    chunk_s = float(os.environ.get("SUSPENSION_SIM_LOG_CHUNK_S") or CHUNK_S)
+    rows = min(int(chunk_s / (sim.log_every * sim.dt) + 1e-9), int(budget // row))
+    return int(min(n_log, max(2, rows)))
+
+
 class Logger:
-    """The log of one ensemble run: ``t`` (n_log,) and ``ch`` channel name -> (n_cars, n_log) arrays.
+    """The log of one ensemble run: ``t`` (rows,) and ``ch`` channel name -> (n_cars, rows) arrays holding
+    log instants ``base`` .. ``base + rows - 1`` (``rows`` = :attr:`cap`; the whole log when it fits in
+    memory, see :func:`buffer_rows`).
 
     The Python loop calls :meth:`pre` (positions, forces, readings, signals) and :meth:`post`
-    (accelerations) at each logged step; the compiled loop writes ``t`` and ``ch`` itself."""
+    (accelerations) at each logged step; the compiled loop writes ``t`` and ``ch`` itself.  When the buffer is
+    full the loops call :meth:`flush`, which hands it to ``sink.feed(t, ch)`` (:class:`~suspension_sim.stream.
+    LogStream`: Parquet row groups and streaming metrics) and moves ``base`` on; :meth:`finish` flushes the
+    last rows of a chunked log.  :attr:`streamed` tells whether the log was chunked."""
 
-    def __init__(self, sim, n_log: int):
+    def __init__(self, sim, n_log: int, cap: int | None = None, sink=None):
         self.sim = sim
         P = sim.plant
         self.n, self.nc, self.n_log = P.n, P.nc, n_log
-        self.t = np.zeros(n_log)
+        self.cap = n_log if cap is None else int(max(1, min(cap, n_log)))
+        self.base = 0
+        self.sink = sink
+        self.log_every, self.dt = sim.log_every, sim.dt
+        self.t = np.zeros(self.cap)
         self.ch: dict[str, np.ndarray] = {}
         self.sfx = P.suffixes
 
+    @property
+    def streamed(self) -> bool:
+        return self.cap < self.n_log
+
+    def local(self, j: int) -> int:
+        """The buffer row of log instant ``j`` (flushing the full buffer first when ``j`` is past it)."""
+        i = j - self.base
+        if i >= self.cap:
+            self.flush()
+            i = j - self.base
+        return i
+
+    def flush(self, rows: int | None = None) -> None:
+        """Hand the buffer's first ``rows`` (default: all) to the sink and start the next chunk there."""
+        rows = self.cap if rows is None else rows
+        if self.sink is not None and rows > 0:
+            self.sink.feed(self.t[:rows], {k: a[:, :rows] for k, a in self.ch.items()})
+        self.base += rows
+        self.t[:] = (np.arange(self.base, self.base + self.cap) * self.log_every) * self.dt
+
+    def finish(self) -> None:
+        """After the run: a chunked log hands its last rows to the sink (a whole log stays as it is)."""
+        if self.streamed:
+            if self.base < self.n_log:
+                self.flush(self.n_log - self.base)
+            if self.sink is not None:
+                self.sink.close()
+
     def _put(self, name, j, value):
-        """value: (n,) per car."""
+        """value: (n,) per car; j a buffer row."""
         arr = self.ch.get(name)
         if arr is None:
-            arr = self.ch[name] = np.full((self.n, self.n_log), np.nan)
+            arr = self.ch[name] = np.full((self.n, self.cap), np.nan)
         arr[:, j] = value
 
     def _corner(self, base, j, values):

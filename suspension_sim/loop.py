@@ -33,7 +33,8 @@ def steps(sim, logger, progress=None):
     sensor readings at each control instant and is sent the command; records into ``logger``
     (:class:`~suspension_sim.log.Logger`) and returns the wall time (s) of the loop.
 
-    ``sim`` also carries the run's hooks (``sim.log_hooks``: ``hook(logger, j, t)`` after each logged step)
+    ``sim`` also carries the run's hooks (``sim.log_hooks``: ``hook(logger, j, t)`` after each logged step, j
+    the step's row in the logger's buffer)
     and, at each control instant, ``sim.t`` and ``sim.state`` (the true :class:`PlantState` of the
     readings); at the end ``sim.end_forces`` (the last step's acceleration, actuator and tire-effect forces)."""
     P = sim.plant
@@ -119,7 +120,8 @@ def steps(sim, logger, progress=None):
         S.act.set(F_act)
         log_now = k % sim.log_every == 0
         if log_now:
-            logger.pre(k // sim.log_every, t, road, road_vel, travel, rate, command, F_act, F_eff, F_teff, readings)
+            jl = logger.local(k // sim.log_every)  # the row in the log buffer (a full buffer is flushed)
+            logger.pre(jl, t, road, road_vel, travel, rate, command, F_act, F_eff, F_teff, readings)
         need_acc = log_now or (k + 1) % sim.sub == 0
         v_before = d.qvel.copy() if (need_acc and not sim.rk4) else None
         if sim.rk4:
@@ -136,9 +138,9 @@ def steps(sim, logger, progress=None):
             # explicit acceleration at the step start) differs from it by O(dt·c/m)
             acc = (d.qvel - v_before) / sim.dt
         if log_now:
-            logger.post(k // sim.log_every, acc)
+            logger.post(jl, acc)
             for hook in sim.log_hooks:
-                hook(logger, k // sim.log_every, t)
+                hook(logger, jl, t)
         sim.actuator.advance(command, travel, rate, t, sim.dt)
         if progress is not None and k % prog_every == 0:
             progress(k / sim.n_steps)

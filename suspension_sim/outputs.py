@@ -39,9 +39,22 @@ def write_result(result, out: Path, plots: bool = True, timeseries: bool = True)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     if timeseries:
-        tmp = out / ".timeseries.parquet.tmp"
-        result.timeseries.to_parquet(tmp, index=False)
-        tmp.replace(out / "timeseries.parquet")
+        src = getattr(result, "timeseries_file", None)
+        if src is not None:  # a streamed (long) run: its file was written chunk by chunk during the run
+            import shutil
+
+            src = Path(src)
+            dst = out / "timeseries.parquet"
+            if src.resolve() != dst.resolve():
+                if src.name == "timeseries.parquet":  # another run folder's file: copied
+                    shutil.copyfile(src, dst)
+                else:  # the run's own spool file: moved (a rename on the same disk)
+                    shutil.move(str(src), str(dst))
+                    result.__dict__["_file"] = dst
+        else:
+            tmp = out / ".timeseries.parquet.tmp"
+            result.timeseries.to_parquet(tmp, index=False)
+            tmp.replace(out / "timeseries.parquet")
     resolved = result.scenario.resolved_dict()
     resolved.pop("variants", None)
     resolved["sim"]["seed"] = result.scenario.sim.seed
@@ -63,11 +76,14 @@ def write_result(result, out: Path, plots: bool = True, timeseries: bool = True)
         plot_run({result.scenario.name: result}, out / "plots")
     outputs = getattr(result.scenario, "outputs", None)
     if getattr(outputs, "viewer", False):  # self-contained 3D view (suspension_sim.viewer)
+        from .results import previewed
         from .viewer import write_viewer
 
-        write_viewer(result, out / "viewer.html")
+        write_viewer(previewed(result), out / "viewer.html")
     if getattr(outputs, "report", False):  # metrics, plots and the 3D view in one page (suspension_sim.report)
         from .report import write_report
 
-        write_report(out, result=result)
+        from .results import previewed
+
+        write_report(out, result=previewed(result))
     return out

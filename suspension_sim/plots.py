@@ -33,10 +33,14 @@ _COLORS = ["#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e
 # --------------------------------------------------------------------------------------------------- helpers
 def _as_dict(results) -> dict:
     if isinstance(results, Mapping):
-        return dict(results)
-    if hasattr(results, "timeseries"):
-        return {_name(results, "run"): results}
-    return {_name(r, f"run {i + 1}"): r for i, r in enumerate(results)}
+        out = dict(results)
+    elif hasattr(results, "timeseries"):
+        out = {_name(results, "run"): results}
+    else:
+        out = {_name(r, f"run {i + 1}"): r for i, r in enumerate(results)}
+    from .results import previewed
+
+    return {k: previewed(r) for k, r in out.items()}
 
 
 def _name(r, default: str) -> str:

@@ -104,7 +104,9 @@ def plot_frequency(results, out_dir, t_skip: float | None = None, fmax: float = 
     a quarter of the run, at most 10 s)."""
     if hasattr(results, "timeseries"):
         results = {getattr(results.scenario, "name", "run"): results}
-    results = dict(results)
+    from .results import previewed
+
+    results = {k: previewed(r) for k, r in dict(results).items()}
     out_dir = Path(out_dir)
     runs = {}
     for k, r in results.items():

@@ -3,8 +3,10 @@
 :func:`build` validates a scenario file (with ``--set`` overrides), expands its variants and builds each
 variant's :class:`~suspension_sim.simulation.Simulation` (the MuJoCo model, every component, the roads): the
 checks that used to surface only in ``run`` (integrator limits, effects on a model without tires, manoeuvres
-on a quarter car, ...) then fail in ``validate`` too.  :func:`check_log_memory` refuses a run whose log would
-not fit (instants × channels × cars × 8 bytes, against the ``log_gb`` limit of :mod:`suspension_sim.limits`).
+on a quarter car, ...) then fail in ``validate`` too.  Memory no longer grows with the duration (a log longer
+than the buffer streams to disk in chunks, :mod:`suspension_sim.stream`): :func:`check_log_memory` checks the
+log buffer against the ``log_gb`` limit of :mod:`suspension_sim.limits`, and :func:`check_disk` refuses a
+run whose time series would not fit on the disk.
 """
 from __future__ import annotations
 
@@ -12,27 +14,19 @@ from pathlib import Path
 
 from . import limits
 from .errors import ScenarioError
-
-
-def log_channels_estimate(sim) -> int:
-    """An upper estimate of the logged channels per car (body dofs × 3, ~16 per corner, sensors, signals)."""
-    P = sim.plant
-    n = 3 * len(P.body_joints) + 16 * P.nc + 8
-    for ch in getattr(sim, "sensors", []):
-        try:
-            n += max(1, len(ch.sensor.labels()))
-        except Exception:  # noqa: BLE001 - an estimate
-            n += P.nc
-    return n + 4 * P.nc
+from .log import log_channels_estimate
 
 
 def check_log_memory(sim, source: str | None = None) -> None:
+    """The log buffer (the whole log, or one chunk of a streamed log) against the ``log_gb`` limit."""
+    from .log import buffer_rows
     from .simulation import n_log_samples
 
     n_log = n_log_samples(sim.n_steps, sim.log_every)
-    gb = n_log * sim.plant.n * log_channels_estimate(sim) * 8 / 1e9
+    rows = buffer_rows(sim, n_log)
+    gb = rows * sim.plant.n * log_channels_estimate(sim) * 8 / 1e9
     limits.check("log_gb", gb, source=source, field="sim.duration",
-                 what=f"the run's log ({n_log} instants; a larger sim.log_dt makes it smaller) in GB")
+                 what=f"the run's log buffer ({rows} instants; a larger sim.log_dt makes it smaller) in GB")
 
 
 def check_disk(sims, target: Path, timeseries: bool = True, source: str | None = None) -> None:

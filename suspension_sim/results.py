@@ -60,7 +60,7 @@ class Result:
         t = logger.t
         ch = dict(logger.ch)  # a snapshot of the channel dict (the arrays are shared, not copied)
         shared: dict = {}  # what the cars' DataFrames can share (the column Index)
-        infos = _infos(sim, wall)
+        infos = infos_of(sim, wall)
         gaps = [inf["stop_gap"] for inf in infos]
         out = []
         for i, info in enumerate(infos):
@@ -89,6 +89,35 @@ class Result:
         cols.update((k, a[i]) for k, a in ch.items())
         return cols
 
+    @property
+    def timeseries_file(self):
+        """The Parquet file holding a streamed (long) run's time series (read by :attr:`timeseries` on
+        demand), or None when the time series is in memory."""
+        return self.__dict__.get("_file")
+
+    def preview_frame(self) -> pd.DataFrame:
+        """The time series for plots and views: the whole log, or for a streamed run its bounded preview
+        (every ``info["streamed_log"]["preview_every"]``-th log instant)."""
+        pv = self.__dict__.get("_preview")
+        if pv is None:
+            return self.timeseries
+        t, ch, i = pv
+        return frame(["t", *ch], [t] + [a[i] for a in ch.values()])
+
+    def preview_view(self):
+        """A :class:`~suspension_sim.metrics.base.RunView` of :meth:`preview_frame` (metrics without a
+        streaming version on a streamed run)."""
+        from .metrics.base import RunView
+
+        pv = self.__dict__.get("_preview")
+        if pv is None:
+            return self.view()
+        t, ch, i = pv
+        cols = {"t": t}
+        cols.update((k, a[i]) for k, a in ch.items())
+        return RunView(ts=None, suffixes=self.info["suffixes"], static_tire_force=self.info["static_tire_force"],
+                       stop_gap=self.info.get("stop_gap", {}), info=self.info, columns=cols)
+
     def view(self):
         from .metrics.base import RunView
 
@@ -98,7 +127,8 @@ class Result:
                        info=self.info, columns=cols)
 
     def __getstate__(self):
-        self.timeseries  # noqa: B018 - build the DataFrame: never pickle the whole ensemble's logs
+        if self.__dict__.get("_file") is None:
+            self.timeseries  # noqa: B018 - build the DataFrame: never pickle the whole ensemble's logs
         return self.__dict__
 
     def __setstate__(self, state):
@@ -111,6 +141,10 @@ class Result:
 def _ts_get(self) -> pd.DataFrame:
     d = self.__dict__
     ts = d.get("_ts")
+    if ts is None and d.get("_file") is not None:  # a streamed run: read from its file (not kept)
+        return pd.read_parquet(d["_file"])
+    if ts is None and d.get("_preview") is not None:  # a streamed run without a file: the preview
+        return self.preview_frame()
     if ts is None:
         src = d.get("_src")
         if src is not None:
@@ -123,6 +157,7 @@ def _ts_get(self) -> pd.DataFrame:
 def _ts_set(self, value) -> None:
     self.__dict__["_ts"] = value
     self.__dict__["_src"] = None
+    self.__dict__["_file"] = self.__dict__["_preview"] = None
 
 
 # ``timeseries`` stays a dataclass field (constructor, repr, fields() unchanged) read through a property,
@@ -130,7 +165,16 @@ def _ts_set(self, value) -> None:
 Result.timeseries = property(_ts_get, _ts_set, doc="one car's log as a DataFrame (columns: see the module doc)")
 
 
-def _infos(sim, wall: float) -> list[dict]:
+def previewed(r):
+    """``r``, or for a streamed (long) run a copy whose time series is its bounded preview (every q-th log
+    instant, ``info["streamed_log"]``): plots never read a long run's whole file."""
+    pf = getattr(r, "preview_frame", None)
+    if pf is None or getattr(r, "__dict__", {}).get("_preview") is None:
+        return r
+    return type(r)(scenario=r.scenario, timeseries=pf(), info=r.info, metrics=r.metrics)
+
+
+def infos_of(sim, wall: float) -> list[dict]:
     """Every car's ``Result.info`` (the pieces shared by the ensemble computed once)."""
     P = sim.plant
     n = P.n
@@ -185,10 +229,12 @@ def compute_metrics(result: Result) -> dict:
     return out
 
 
-def compute_metrics_many(t, channels: dict, suffixes, infos: list, stop_gaps: list, views: list) -> list[dict]:
+def compute_metrics_many(t, channels: dict, suffixes, infos: list, stop_gaps: list, views: list,
+                         only: set | None = None) -> list[dict]:
     """:func:`compute_metrics` of every car of an ensemble: ``channels`` name -> ``(n_cars, n_log)``,
     ``t`` the common time axis, ``infos``/``stop_gaps`` per car, ``views[i]()`` car i's :class:`RunView`
-    (made only for metrics without an ensemble version).  Same keys, order and values as car by car."""
+    (made only for metrics without an ensemble version).  Same keys, order and values as car by car.
+    ``only``: the names of the metrics to compute (default: every registered one)."""
     from .metrics.base import EnsembleView
     from .registry import METRICS
 
@@ -213,6 +259,8 @@ def compute_metrics_many(t, channels: dict, suffixes, infos: list, stop_gaps: li
         ens = EnsembleView(channels=chans, t=t, suffixes=list(suffixes), static_tire_force=static,
                            stop_gaps=stop_gaps, infos=infos)
     for name, fn in METRICS.items():
+        if only is not None and name not in only:
+            continue
         many = getattr(fn, "ensemble", None) if ens is not None else None
         if many is not None:
             try:

@@ -15,7 +15,7 @@ from .build import STRUCTURE_KEYS, SpeedProfile, System, n_log_samples, structur
 from .compiled.loop import plan, run as run_compiled
 from .config import Scenario, load_scenario
 from .errors import SimulationDiverged
-from .log import Logger
+from .log import Logger, buffer_rows
 from .loop import one_blas_thread, steps
 from .results import Result
 
@@ -32,12 +32,27 @@ class Simulation(System):
         # callables hook(logger, j, t) run after each logged step j (time t), e.g. the live 3D viewer
         # (suspension_sim.viewer.attach_live_viewer); logger.ch[name][car, j] holds the step's log channels
         self.log_hooks: list = []
+        # a long run's log goes to one Parquet file per car as it runs (suspension_sim.stream): these paths,
+        # or temporary files when None (suspension-sim run points them into the run folder)
+        self.stream_paths: list | None = None
 
     def new_logger(self) -> Logger:
-        return Logger(self, n_log=n_log_samples(self.n_steps, self.log_every))
+        """The run's log: held whole when it fits in the log buffer (:func:`~suspension_sim.log.buffer_rows`),
+        else in chunks streamed to :class:`~suspension_sim.stream.LogStream` (flat memory)."""
+        n_log = n_log_samples(self.n_steps, self.log_every)
+        cap = buffer_rows(self, n_log)
+        sink = None
+        if cap < n_log:
+            from .stream import LogStream
+
+            sink = LogStream(self, n_log, cap)
+        return Logger(self, n_log=n_log, cap=cap, sink=sink)
 
     def results_of(self, logger: Logger, wall: float) -> list:
         """One :class:`Result` per car from a finished run's log."""
+        logger.finish()
+        if logger.streamed:
+            return logger.sink.results(self, wall)
         return [Result.from_logger(logger, i, self, wall) for i in range(self.plant.n)]
 
     def run(self, progress: Callable[[float], None] | None = None) -> list:

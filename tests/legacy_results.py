@@ -85,7 +85,7 @@ def weighted(x, fs: float, name: str = "Wk") -> np.ndarray:
     up = max(1, int(math.ceil(MIN_FILTER_RATE / fs - 1e-9)))
     if up == 1:
         return signal.sosfilt(_weighting_sos(float(fs), name), x)
-    xu = signal.resample_poly(x, up, 1, padtype="line")
+    xu = signal.resample_poly(x, up, 1, padtype="edge")
     return signal.sosfilt(_weighting_sos(float(fs * up), name), xu)[::up][: x.size]
 
 

@@ -9,7 +9,7 @@ Layers, lowest first (a module may import its own layer or lower ones, never a h
 3 build       plant, build (scenario -> a System of components; no stepping)
 4 run         loop (the Python loop), divergence, compiled.loop, compiled.testing
 5 log         log
-6 metrics     metrics, results
+6 metrics     metrics, results, stream
 7 outputs     outputs, plots, plots_frequency, report, viewer
 8 simulation  simulation (build + run + log)
 9 apps        the package root, batch, envs, rl, preflight, cli, commands, diagnose, reproductions
@@ -42,7 +42,7 @@ MODULES = {
     "suspension_sim.plant": BUILD, "suspension_sim.build": BUILD,
     "suspension_sim.loop": RUN, "suspension_sim.divergence": RUN, "suspension_sim.compiled.loop": RUN, "suspension_sim.compiled.testing": RUN,
     "suspension_sim.log": LOG,
-    "suspension_sim.results": METRICS,
+    "suspension_sim.results": METRICS, "suspension_sim.stream": METRICS,
     "suspension_sim.outputs": OUTPUTS, "suspension_sim.plots": OUTPUTS, "suspension_sim.plots_frequency": OUTPUTS,
     "suspension_sim.report": OUTPUTS,
     "suspension_sim.simulation": SIMULATION,

@@ -29,13 +29,12 @@ import os
 import sys
 import tempfile
 import time as _time
-import types
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
-TEMPLATE_VERSION = 14
+TEMPLATE_VERSION = 15
 
 # PlantState fields a compiled sensor may read (Sensor.kernel_field), by code
 FIELDS = ("body_pos", "body_vel", "body_acc", "corner_body_pos", "corner_body_vel", "corner_body_acc",
@@ -237,12 +236,13 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
          cmd, F_act, F_eff, F_teff, acc, v_before, sv, a_p, a_st,
          sens_field, sens_cols, sens_aux, sens_off, sens_k, sens_delay, sens_hold, sens_bias, sens_std, sens_q,
          noise, noise_off, ring, sens_tmp, y, kc_arr, c_p, c_st,
-         L, LC, lc_act, act_j, lc_y, lc_ctrl, ctrl_j{eargs}):
+         L, log0, LC, lc_act, act_j, lc_y, lc_ctrl, ctrl_j{eargs}):
     """Physics steps k0..k1-1 (road samples of step k at road_z[k - k_chunk0]).  Returns k1 when done,
     k (>= 0) at a control instant that Python must handle (hybrid loop, after mj_step1 of step k: call again
     with resume=1 from k), -(k + 1) when the state check at control instant k fails, or PRE + k before
     control instant k when var_hook is set (Python applies the time-varying parameters, then calls again with
-    resume=2 from k)."""
+    resume=2 from k).  Log row j (step j * log_every) goes to L[:, j - log0]: L holds log rows log0 ..
+    log0 + L.shape[1] - 1 (one chunk of the log; the caller stops at its end and flushes it)."""
     n, nc = road_q.shape
     nb = body_q.shape[1]
     n_log = L.shape[1]
@@ -360,8 +360,8 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                     ctrl[eff_t[i, c]] = F_teff[i, c] + tire_ct[i, c] * road_zd[jr, i, c]
                 ctrl[act[i, c]] = Fa
         log_now = k % log_every == 0
-        jl = k // log_every
-        if log_now and jl < n_log:
+        jl = k // log_every - log0
+        if log_now and 0 <= jl < n_log:
             for i in range(n):
                 for b in range(nb):
                     if LC[0, b] >= 0:
@@ -419,7 +419,7 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                 if has_tire:
                     for c in range(nc):
                         acc[wheel_v[i, c]] = (qvel[wheel_v[i, c]] - v_before[wheel_v[i, c]]) / dt
-        if log_now and jl < n_log:
+        if log_now and 0 <= jl < n_log:
             for i in range(n):
                 for b in range(nb):
                     if LC[2, b] >= 0:
@@ -565,6 +565,19 @@ def metric_channels(suffixes) -> set | None:
     return out
 
 
+class _Record:
+    """A log buffer whose chunks nobody reads (:func:`run_steps` without a logger)."""
+
+    def __init__(self, n_log, cap, log_every, dt):
+        self.n_log, self.cap, self.base, self.log_every, self.dt = n_log, cap, 0, log_every, dt
+        self.t = np.zeros(cap)
+        self.ch: dict = {}
+
+    def flush(self, rows=None):
+        self.base += self.cap if rows is None else rows
+        self.t[:] = (np.arange(self.base, self.base + self.cap) * self.log_every) * self.dt
+
+
 def run(sim, mode: str, progress, logger) -> float:
     """Run ``sim`` with the compiled loop (``mode`` from :func:`plan`), recording into ``logger`` (a
     :class:`~suspension_sim.log.Logger`: its ``t`` and ``ch`` are written here) the log of the Python loop;
@@ -685,6 +698,9 @@ def run_steps(sim, mode: str, progress=None, logger=None):
     from ..build import n_log_samples
 
     n_log = n_log_samples(sim.n_steps, sim.log_every)
+    if logger is None:  # a bare record nobody reads, in chunks of at most 30 s
+        logger = _Record(n_log, min(n_log, max(2, int(30.0 / (sim.log_every * sim.dt)))), sim.log_every, sim.dt)
+    cap = logger.cap  # log rows the buffer holds (the whole log, or a chunk: see log.buffer_rows)
     layout = _Layout(sim)
     y = np.zeros((n, max(ytot, 1)))
 
@@ -695,7 +711,7 @@ def run_steps(sim, mode: str, progress=None, logger=None):
         # car-major (car, log step, channel): a log step writes one contiguous row per car (channel-major
         # writes touch a cache line per channel: ~0.2 us per car-step with 30 channels); the metrics read
         # the strided channel views.  Every entry is written by the loop.
-        L = np.empty((n, n_log, len(layout.names)))
+        L = np.empty((n, cap, len(layout.names)))
         eff_full = []
         for args, lc in zip(eff_args, layout.eff_lc):
             eff_full += args + [lc]
@@ -744,12 +760,10 @@ def run_steps(sim, mode: str, progress=None, logger=None):
                         cmd, F_act, F_eff, F_teff, acc, v_before, sv, a_p, a_st,
                         sens["field"], sens_cols, sens["aux"], sens["off"], sens["k"], sens["delay"],
                         sens["hold"], sens["bias"], sens["std"], sens["q"], noise, sens["noise_off"], ring, sens_tmp, y,
-                        kc_arr, c_p, c_st, L, layout.LC, layout.lc_act, act_j, layout.lc_y, layout.lc_ctrl,
+                        kc_arr, c_p, c_st, L, logger.base, layout.LC, layout.lc_act, act_j, layout.lc_y, layout.lc_ctrl,
                         ctrl_j, *eff_full)
 
-    if logger is None:
-        logger = types.SimpleNamespace(t=np.zeros(n_log), ch={})
-    logger.t[:] = (np.arange(n_log) * sim.log_every) * sim.dt
+    logger.t[:] = (np.arange(logger.base, logger.base + cap) * sim.log_every) * sim.dt
 
     def attach_log():
         logger.ch = {name: L[:, :, j] for j, name in enumerate(layout.names) if name != "__scratch__"}
@@ -759,21 +773,36 @@ def run_steps(sim, mode: str, progress=None, logger=None):
     chunk = max(sim.sub, 2000 // sim.sub * sim.sub)
     wall0 = _time.perf_counter()
     hooks = list(sim.log_hooks)
+    hooked = [0]  # the next log row whose hooks have not run
+
+    def run_hooks(upto):  # the hooks of log rows < upto (buffer rows j - base)
+        if hooks:
+            for j in range(hooked[0], min(upto, n_log)):
+                for hook in hooks:
+                    hook(logger, j - logger.base, j * sim.log_every * sim.dt)
+        hooked[0] = max(hooked[0], upto)
+
     for k_chunk0 in range(0, sim.n_steps, chunk):
-        k1 = min(k_chunk0 + chunk, sim.n_steps)
+        k1r = min(k_chunk0 + chunk, sim.n_steps)
         # step-major (step, car, corner): one step's road for all cars is contiguous
-        chunks = [np.ascontiguousarray(a.transpose(1, 0, 2), dtype=np.float64) for a in sim.road_chunk(k_chunk0, k1)]
+        chunks = [np.ascontiguousarray(a.transpose(1, 0, 2), dtype=np.float64) for a in sim.road_chunk(k_chunk0, k1r)]
         road_z, road_zd = chunks[0], chunks[1]
         road_zdd = chunks[2] if sim.rk4 else road_z  # RK4: the plates' acceleration (unused otherwise)
         if sim.maneuver is not None:  # the manoeuvre's pitch/roll loads of the chunk's steps
-            man_p, man_r = (np.ascontiguousarray(a) for a in sim.maneuver.loads(np.arange(k_chunk0, k1) * sim.dt))
+            man_p, man_r = (np.ascontiguousarray(a) for a in sim.maneuver.loads(np.arange(k_chunk0, k1r) * sim.dt))
         else:
             man_p = man_r = np.zeros((1, n))
         k, resume = k_chunk0, 0
         while True:
+            k1 = min(k1r, (logger.base + cap) * sim.log_every)  # not past the end of the log buffer
             r = call(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume)
             if r == k1:
-                break
+                if k1 == k1r:
+                    break
+                run_hooks(-(-k1 // sim.log_every))  # the buffer is full: hand it on, go on at step k1
+                logger.flush()
+                k, resume = k1, 0
+                continue
             if r >= PRE:  # time-varying parameters at control instant k, as loop.steps applies them
                 k, resume = r - PRE, 2
                 sim.apply_variations(k * sim.dt)
@@ -815,12 +844,9 @@ def run_steps(sim, mode: str, progress=None, logger=None):
                 else:
                     c_st[:, q:q + w] = np.nan
                 q += w
-        if hooks:
-            for j in range(-(-k_chunk0 // sim.log_every), min(-(-k1 // sim.log_every), n_log)):
-                for hook in hooks:
-                    hook(logger, j, j * sim.log_every * sim.dt)
+        run_hooks(-(-k1r // sim.log_every))
         if progress is not None:
-            progress(k1 / sim.n_steps)
+            progress(k1r / sim.n_steps)
     if full:
         ctrl.kernel_sync(c_st)
     sim.end_forces = (acc, F_act, F_teff)

@@ -1,7 +1,9 @@
 """RMS and peak actuator force per corner."""
 from ..registry import METRICS
 from ._util import peak
-from .base import EnsembleView, RunView, ensemble_version, peak_rows, rms, rms_rows
+import numpy as np
+
+from .base import EnsembleView, Reductions, RunView, ensemble_version, peak_rows, rms, rms_rows, stream_version
 
 
 @METRICS.register("actuator_force")
@@ -23,3 +25,23 @@ def _actuator_force_many(ens: EnsembleView) -> dict:
         out[f"actuator_force_rms{s}"] = rms_rows(f)
         out[f"actuator_force_peak{s}"] = peak_rows(f)
     return out
+
+
+@stream_version(actuator_force)
+class _ActuatorForceStream:
+    def __init__(self, meta: EnsembleView):
+        self.meta, self.r = meta, Reductions()
+
+    def update(self, ens: EnsembleView) -> None:
+        self.r.start(ens)
+        for s in ens.suffixes:
+            f = ens.col(f"actuator_force{s}")
+            self.r.sum(f"ss{s}", f * f)
+            self.r.max(f"pk{s}", np.abs(f))
+
+    def result(self) -> dict:
+        n, out = self.meta.n_cars, {}
+        for s in self.meta.suffixes:
+            out[f"actuator_force_rms{s}"] = self.r.rms(f"ss{s}", n)
+            out[f"actuator_force_peak{s}"] = self.r.get(f"pk{s}", n)
+        return out

@@ -4,7 +4,7 @@ from scipy import integrate
 
 from ..registry import METRICS
 from ._util import peak
-from .base import EnsembleView, RunView, ensemble_version, peak_rows
+from .base import EnsembleView, Reductions, RunView, ensemble_version, peak_rows, stream_version
 
 
 @METRICS.register("actuator_power")
@@ -62,3 +62,36 @@ def _actuator_power_many(ens: EnsembleView) -> dict:
     if len(ens.suffixes) > 1:
         out.update({f"{k}_total": v for k, v in tot.items()})
     return out
+
+
+@stream_version(actuator_power)
+class _ActuatorPowerStream:
+    def __init__(self, meta: EnsembleView):
+        self.meta, self.r = meta, Reductions()
+
+    def update(self, ens: EnsembleView) -> None:
+        self.r.start(ens)
+        for s in ens.suffixes:
+            p = ens.col(f"actuator_force{s}") * ens.col(f"travel_rate{s}")
+            a = np.abs(p)
+            self.r.sum(f"abs{s}", a)
+            self.r.sum(f"pos{s}", np.clip(p, 0.0, None))
+            self.r.trapezoid(f"e{s}", a, ens.t)
+            self.r.max(f"pk{s}", a)
+
+    def result(self) -> dict:
+        n, out = self.meta.n_cars, {}
+        tot = {"actuator_power_mean_abs": 0.0, "actuator_power_mean_pos": 0.0, "actuator_energy": 0.0}
+        for s in self.meta.suffixes:
+            vals = {
+                "actuator_power_mean_abs": self.r.mean(f"abs{s}", n),
+                "actuator_power_mean_pos": self.r.mean(f"pos{s}", n),
+                "actuator_energy": self.r.v.get(f"e{s}", np.zeros(n)),
+            }
+            for k, v in vals.items():
+                out[f"{k}{s}"] = v
+                tot[k] = tot[k] + v
+            out[f"actuator_power_peak{s}"] = self.r.get(f"pk{s}", n)
+        if len(self.meta.suffixes) > 1:
+            out.update({f"{k}_total": v for k, v in tot.items()})
+        return out

@@ -1,7 +1,9 @@
 """Body pitch and roll: peak and RMS angle, RMS angular acceleration (models that have them)."""
 from ..registry import METRICS
 from ._util import peak
-from .base import EnsembleView, RunView, ensemble_version, peak_rows, rms, rms_rows
+import numpy as np
+
+from .base import EnsembleView, Reductions, RunView, ensemble_version, peak_rows, rms, rms_rows, stream_version
 
 
 def _attitude(run: RunView, dof: str) -> dict:
@@ -44,3 +46,40 @@ def _pitch_many(ens: EnsembleView) -> dict:
 @ensemble_version(roll, channels=("roll", "roll_acc"))
 def _roll_many(ens: EnsembleView) -> dict:
     return _attitude_many(ens, "roll")
+
+
+class _AttitudeStream:
+    dof = ""
+
+    def __init__(self, meta: EnsembleView):
+        self.meta, self.r, self.has_acc = meta, Reductions(), False
+
+    def update(self, ens: EnsembleView) -> None:
+        self.r.start(ens)
+        d = self.dof
+        ang = ens.col(d)
+        self.r.sum("ss", ang * ang)
+        self.r.max("pk", np.abs(ang))
+        if ens.has(f"{d}_acc"):
+            self.has_acc = True
+            acc = ens.col(f"{d}_acc")
+            self.r.sum("ss_acc", acc * acc)
+            self.r.max("pk_acc", np.abs(acc))
+
+    def result(self) -> dict:
+        n, d = self.meta.n_cars, self.dof
+        out = {f"{d}_peak": self.r.get("pk", n), f"{d}_rms": self.r.rms("ss", n)}
+        if self.has_acc:
+            out[f"{d}_acc_rms"] = self.r.rms("ss_acc", n)
+            out[f"{d}_acc_peak"] = self.r.get("pk_acc", n)
+        return out
+
+
+@stream_version(pitch)
+class _PitchStream(_AttitudeStream):
+    dof = "pitch"
+
+
+@stream_version(roll)
+class _RollStream(_AttitudeStream):
+    dof = "roll"

@@ -38,7 +38,10 @@ applied as one second-order-section cascade with ``scipy.signal.sosfilt``.  The 
 each section's roll-off towards the Nyquist frequency, so the signal is first upsampled (by an integer
 factor with ``scipy.signal.resample_poly``) to at least :data:`MIN_FILTER_RATE` Hz when it is logged
 slower, filtered there and decimated back by taking every L-th sample (the weighted signal carries no
-content above the original Nyquist frequency).  At 2 kHz the digital magnitude is within 0.4 % of the
+content above the original Nyquist frequency).  The upsampler extends the record at each end with its end
+value (``padtype="edge"``), so that the start of the weighted signal depends only on the start of the record
+and a long run can be weighted chunk by chunk (:class:`_Iso2631Stream`: the upsampler on overlapping
+segments, the filter state carried over with ``sosfilt``'s ``zi``) with the same result.  At 2 kHz the digital magnitude is within 0.4 % of the
 analog |W(f)| from 0.1 to 80 Hz.
 
 Quantities (ISO 2631-1 §6)
@@ -58,7 +61,7 @@ import numpy as np
 from scipy import integrate, signal
 
 from ..registry import METRICS
-from .base import EnsembleView, RunView, ensemble_version, rms, rms_rows
+from .base import EnsembleView, Reductions, RunView, ensemble_version, rms, rms_rows, stream_version
 
 #: Parameters (Hz, and quality factors) of ISO 2631-1:1997 Annex A for the weightings provided here.
 WEIGHTINGS: dict[str, dict[str, float]] = {
@@ -137,7 +140,7 @@ def weighted(x, fs: float, name: str = "Wk") -> np.ndarray:
     up = max(1, int(math.ceil(MIN_FILTER_RATE / fs - 1e-9)))
     if up == 1:
         return signal.sosfilt(_weighting_sos(float(fs), name), x)
-    xu = signal.resample_poly(x, up, 1, padtype="line", window=_upsampling_window(up))
+    xu = signal.resample_poly(x, up, 1, padtype="edge", window=_upsampling_window(up))
     return signal.sosfilt(_weighting_sos(float(fs * up), name), xu)[::up][: x.size]
 
 
@@ -162,7 +165,7 @@ def weighted_rows(x: np.ndarray, fs: float, name: str = "Wk") -> np.ndarray:
     up = max(1, int(math.ceil(MIN_FILTER_RATE / fs - 1e-9)))
     if up == 1:
         return signal.sosfilt(_weighting_sos(float(fs), name), x, axis=-1)
-    xu = signal.resample_poly(x, up, 1, axis=-1, padtype="line", window=_upsampling_window(up))
+    xu = signal.resample_poly(x, up, 1, axis=-1, padtype="edge", window=_upsampling_window(up))
     return signal.sosfilt(_weighting_sos(float(fs * up), name), xu, axis=-1)[:, ::up][:, : x.shape[1]]
 
 
@@ -245,3 +248,113 @@ def _iso2631_many(ens: EnsembleView) -> dict:
         "body_acc_wk_mtvv": mtvv_rows(aw, fs),
         "body_acc_wk_crest": crest,
     }
+
+
+class WeightedStream:
+    """:func:`weighted_rows` of a signal that arrives in chunks (``(n_cars, rows)`` each): :meth:`push` returns
+    the weighted samples it can already give (the upsampler needs :attr:`margin` samples beyond them), and
+    ``push(None, final=True)`` the rest.  The upsampler runs on segments that overlap by the margin (its FIR
+    reaches ``10`` input samples either side; the kept samples see the same inputs in the same order as in
+    one pass), and ``sosfilt`` carries its state (``zi``) from chunk to chunk."""
+
+    def __init__(self, n_cars: int, fs: float, name: str = "Wk"):
+        self.up = max(1, int(math.ceil(MIN_FILTER_RATE / fs - 1e-9)))
+        self.sos = _weighting_sos(float(fs * self.up), name)
+        self.zi = np.zeros((self.sos.shape[0], n_cars, 2))
+        self.margin = 10 + 2  # input samples the upsampler's half-length reaches, and some
+        self.buf = np.zeros((n_cars, 0))
+        self.buf0 = 0  # global index of buf[:, 0]
+        self.done = 0  # weighted samples given so far
+
+    def push(self, x, final: bool = False) -> np.ndarray:
+        if x is not None and x.shape[1]:
+            self.buf = np.concatenate([self.buf, x], axis=1)
+        total = self.buf0 + self.buf.shape[1]
+        if self.up == 1:
+            xu, self.done = self.buf, total
+            self.buf, self.buf0 = self.buf[:, :0], total
+            if xu.shape[1] == 0:
+                return xu
+            y, self.zi = signal.sosfilt(self.sos, xu, axis=-1, zi=self.zi)
+            return y
+        end = total if final else total - self.margin
+        if end <= self.done:
+            return self.buf[:, :0]
+        seg0 = max(self.buf0, self.done - self.margin)
+        seg1 = total if final else min(total, end + self.margin)
+        seg = self.buf[:, seg0 - self.buf0:seg1 - self.buf0]
+        xu = signal.resample_poly(seg, self.up, 1, axis=-1, padtype="edge", window=_upsampling_window(self.up))
+        xu = xu[:, (self.done - seg0) * self.up:(end - seg0) * self.up]
+        y, self.zi = signal.sosfilt(self.sos, xu, axis=-1, zi=self.zi)
+        self.done = end
+        keep = max(self.buf0, end - self.margin)
+        self.buf, self.buf0 = self.buf[:, keep - self.buf0:], keep
+        return y[:, ::self.up]
+
+
+@stream_version(iso2631)
+class _Iso2631Stream:
+    """Weighted RMS, VDV, MTVV and crest factor of a streamed log (:class:`WeightedStream`; the running sum
+    of a_w² for the MTVV windows is carried over exactly, the last window's worth kept)."""
+
+    def __init__(self, meta: EnsembleView):
+        self.n = meta.n_cars
+        self.w = None
+        self.r = Reductions()
+        self.n_aw = 0
+        self.c_tail = np.zeros((self.n, 1))  # the last values of the running sum of a_w² (c[0] = 0)
+        self.best = np.full(self.n, -np.inf)
+        self.prev4 = None
+
+    def update(self, ens: EnsembleView) -> None:
+        if self.w is None:
+            if ens.dt <= 0:
+                return
+            self.fs = 1.0 / ens.dt
+            self.win = int(round(MTVV_TAU * self.fs))
+            self.w = WeightedStream(self.n, self.fs, "Wk")
+        self.r.start(ens)
+        self._take(self.w.push(ens.col("body_acc")))
+
+    def _take(self, aw: np.ndarray) -> None:
+        if aw.shape[1] == 0:
+            return
+        sq = aw * aw
+        self.r.sum("ss", sq)
+        self.r.max("pk", np.abs(aw))
+        a4 = aw ** 4
+        if self.prev4 is not None:
+            a4 = np.concatenate([self.prev4, a4], axis=1)
+        if a4.shape[1] > 1:
+            self.r.sum_value("vdv4", integrate.trapezoid(a4, dx=1.0 / self.fs, axis=-1))
+        self.prev4 = a4[:, -1:]
+        # running sum carried sequentially (np.cumsum from the last value: the one-pass cumsum's numbers)
+        c = np.cumsum(np.concatenate([self.c_tail[:, -1:], sq], axis=1), axis=1)[:, 1:]
+        k0 = self.n_aw + 1  # global index (in c) of c[:, 0]
+        full = np.concatenate([self.c_tail, c], axis=1)  # global indices k0 - tail .. k0 + len(c) - 1
+        g0 = k0 - self.c_tail.shape[1]
+        ks = np.arange(max(self.win, k0), k0 + c.shape[1])
+        if self.win >= 1 and ks.size:
+            ms = (full[:, ks - g0] - full[:, ks - self.win - g0]) / self.win
+            self.best = np.maximum(self.best, np.max(ms, axis=1))
+        self.n_aw += aw.shape[1]
+        self.c_tail = full[:, -(self.win + 1):] if self.win >= 1 else full[:, -1:]
+
+    def result(self) -> dict:
+        if self.w is None:
+            return {}
+        self._take(self.w.push(None, final=True))
+        n = self.n
+        awr = np.sqrt(self.r.get("ss", n) / self.n_aw) if self.n_aw else np.full(n, np.nan)
+        mx = self.r.get("pk", n)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            crest = np.where(awr > 0, mx / np.where(awr > 0, awr, 1.0), np.nan)
+        if self.n_aw < 2:
+            vdv_ = np.zeros(n)
+        else:
+            vdv_ = np.array([v ** 0.25 for v in self.r.get("vdv4", n)])
+        if self.win < 1 or self.win >= self.n_aw:
+            mt = awr
+        else:
+            mt = np.array([np.sqrt(max(v, 0.0)) for v in self.best])
+        return {"body_acc_wk_rms": awr, "body_acc_vdv": vdv_, "body_acc_wk_mtvv": mt, "body_acc_wk_crest": crest}

@@ -3,7 +3,7 @@ import numpy as np
 
 from ..registry import METRICS
 from ._util import duration, fraction, peak
-from .base import EnsembleView, RunView, ensemble_version, fraction_rows, peak_rows, rms, rms_rows
+from .base import EnsembleView, Reductions, RunView, ensemble_version, fraction_rows, peak_rows, rms, rms_rows, stream_version
 
 
 def _sides(info: dict, stop_gap: dict, s: str):
@@ -60,3 +60,43 @@ def _suspension_travel_many(ens: EnsembleView) -> dict:
             out[f"travel_stop_fraction{s}"] = f
             out[f"travel_stop_time{s}"] = f * T
     return out
+
+
+@stream_version(suspension_travel)
+class _SuspensionTravelStream:
+    def __init__(self, meta: EnsembleView):
+        self.meta, self.r = meta, Reductions()
+        n = meta.n_cars
+        infos = meta.infos or [{}] * n
+        gaps = meta.stop_gaps or [{}] * n
+        self.sides = {}
+        for s in meta.suffixes:
+            sides = [_sides(infos[i], gaps[i], s) for i in range(n)]
+            have = [sd is not None for sd in sides]
+            if any(have) and not all(have):
+                raise NotImplementedError("stop gaps on some cars only")  # -> decimated car by car
+            if all(have):
+                self.sides[s] = (np.array([float(sd[0]) for sd in sides])[:, None],
+                                 np.array([float(sd[1]) for sd in sides])[:, None])
+
+    def update(self, ens: EnsembleView) -> None:
+        self.r.start(ens)
+        for s in ens.suffixes:
+            x = ens.col(f"travel{s}")
+            self.r.sum(f"ss{s}", x * x)
+            self.r.max(f"pk{s}", np.abs(x))
+            if s in self.sides:
+                lo, hi = self.sides[s]
+                self.r.count(f"stop{s}", (x < -lo) | (x > hi))
+
+    def result(self) -> dict:
+        n, out = self.meta.n_cars, {}
+        T = self.r.duration
+        for s in self.meta.suffixes:
+            out[f"travel_rms{s}"] = self.r.rms(f"ss{s}", n)
+            out[f"travel_peak{s}"] = self.r.get(f"pk{s}", n)
+            if s in self.sides:
+                f = self.r.mean(f"stop{s}", n)
+                out[f"travel_stop_fraction{s}"] = f
+                out[f"travel_stop_time{s}"] = f * T
+        return out

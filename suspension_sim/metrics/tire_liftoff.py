@@ -3,7 +3,7 @@ import numpy as np
 
 from ..registry import METRICS
 from ._util import duration, fraction
-from .base import EnsembleView, RunView, ensemble_version, fraction_rows
+from .base import EnsembleView, Reductions, RunView, ensemble_version, fraction_rows, stream_version
 
 #: total tire force below this share of the static load counts as lifted off (absorbs round-off when the
 #: tire_liftoff effect clamps the total force to exactly zero)
@@ -41,3 +41,26 @@ def _tire_liftoff_many(ens: EnsembleView) -> dict:
         out[f"tire_liftoff_fraction{s}"] = f
         out[f"tire_liftoff_time{s}"] = f * T
     return out
+
+
+@stream_version(tire_liftoff)
+class _TireLiftoffStream:
+    def __init__(self, meta: EnsembleView):
+        self.meta, self.r = meta, Reductions()
+
+    def update(self, ens: EnsembleView) -> None:
+        self.r.start(ens)
+        for s in ens.suffixes:
+            static = [float(v) for v in self.meta.static_tire_force[s]]
+            thr = np.array([LIFTOFF_TOL * max(abs(v), 1.0) for v in static])
+            total = np.asarray(static)[:, None] + ens.col(f"tire_force{s}")
+            self.r.count(f"off{s}", total <= thr[:, None])
+
+    def result(self) -> dict:
+        n, out = self.meta.n_cars, {}
+        T = self.r.duration
+        for s in self.meta.suffixes:
+            f = self.r.mean(f"off{s}", n)
+            out[f"tire_liftoff_fraction{s}"] = f
+            out[f"tire_liftoff_time{s}"] = f * T
+        return out

@@ -3,7 +3,7 @@ import numpy as np
 
 from ..registry import METRICS
 from ._util import peak
-from .base import EnsembleView, RunView, ensemble_version, peak_rows, rms, rms_rows
+from .base import EnsembleView, Reductions, RunView, ensemble_version, peak_rows, rms, rms_rows, stream_version
 
 
 @METRICS.register("tire_load")
@@ -37,3 +37,27 @@ def _tire_load_many(ens: EnsembleView) -> dict:
         with np.errstate(divide="ignore", invalid="ignore"):
             out[f"tire_load_rms_rel{s}"] = np.where(static > 0, r / np.where(static > 0, static, 1.0), np.nan)
     return out
+
+
+@stream_version(tire_load)
+class _TireLoadStream:
+    def __init__(self, meta: EnsembleView):
+        self.meta, self.r = meta, Reductions()
+
+    def update(self, ens: EnsembleView) -> None:
+        self.r.start(ens)
+        for s in ens.suffixes:
+            f = ens.col(f"tire_force{s}")
+            self.r.sum(f"ss{s}", f * f)
+            self.r.max(f"pk{s}", np.abs(f))
+
+    def result(self) -> dict:
+        n, out = self.meta.n_cars, {}
+        for s in self.meta.suffixes:
+            static = np.asarray(self.meta.static_tire_force[s], dtype=float)
+            r = self.r.rms(f"ss{s}", n)
+            out[f"tire_force_rms{s}"] = r
+            out[f"tire_force_peak{s}"] = self.r.get(f"pk{s}", n)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                out[f"tire_load_rms_rel{s}"] = np.where(static > 0, r / np.where(static > 0, static, 1.0), np.nan)
+        return out
