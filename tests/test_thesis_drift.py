@@ -1,6 +1,6 @@
 """The thesis's mode I stiffness/damping drifts (Figs. 2.7–2.8) are defined once
 (suspension_sim/reproductions/_thesis_drift.py); every thesis scenario that drifts a spring or a damper with a
-``ramp`` in ``scale`` mode must use exactly that definition for its run length, and a drift must reach the
+``scale`` ramp (a damper with a ``scale`` step) must use exactly that definition for its run length, and a drift must reach the
 plant (a softer spring sags under the same load)."""
 from __future__ import annotations
 
@@ -22,13 +22,15 @@ def _drifting():
         sc = load_scenario(f)
         for name, v in sc.expand(str(f)):
             for var in v.vehicle.variations:
-                if var.kind == "ramp" and var.mode == "scale" and drift.drift_kind(var):
+                if drift.drift_kind(var):
                     out.append((f.stem, name, var, v.sim.duration))
     return out
 
 
 def test_some_thesis_scenarios_drift():
-    assert {s for s, *_ in _drifting()} >= {"thesis_ch7_road", "thesis_ch7_dirt"}
+    assert {s for s, *_ in _drifting()} >= {"thesis_ch3_adaptation", "thesis_ch6_bump", "thesis_ch6_sine",
+                                            "thesis_ch7_road", "thesis_ch7_dirt"}
+    assert {drift.drift_kind(v) for _, _, v, _ in _drifting()} == {"stiffness", "damping"}
 
 
 @pytest.mark.parametrize("stem,variant,var,duration", _drifting(),

@@ -447,7 +447,7 @@ def ch7_road(ctx) -> ItemOutput:
     ax[1].set_ylabel("pitch (°, nose down +)")
     ax[2].set_ylabel("MRAC force (N)")
     ax[2].legend(fontsize=7)
-    ax[2].set_xlabel("time (s)  [accelerate 20–28 s, brake 40–42 s; springs −15 % 10–50 s]")
+    ax[2].set_xlabel("time (s)  [accelerate 20–28 s, brake 40–42 s; springs −20 % 10–50 s]")
     fig.suptitle("Thesis Ch. 7, Sec. 7.5.1 (Figs. 7.4–7.6): sines with front–rear delay + manoeuvre + drift",
                  fontsize=9)
     fig.tight_layout()
@@ -541,7 +541,7 @@ def ch7_dirt(ctx) -> ItemOutput:
         axx.set_ylabel(lbl, fontsize=8)
         axx.set_xlabel("Hz")
     ax[0, 1].legend(fontsize=6)
-    fig.suptitle("Thesis Ch. 7, Sec. 7.5.2 (Figs. 7.8–7.12): Hac dirt road at 20 m/s, springs −15 % 10–50 s", fontsize=9)
+    fig.suptitle("Thesis Ch. 7, Sec. 7.5.2 (Figs. 7.8–7.12): Hac dirt road at 20 m/s, springs −20 % 10–50 s", fontsize=9)
     fig.tight_layout()
     key = {"mrac_bounce_err": (e["mimo_mrac"]["body_z"], 1e-3), "q0_bounce_err": (e["mimo_mrac_q0"]["body_z"], 1e-3),
            "fixed_bounce_err": (e["mimo_fixed"]["body_z"], 1e-3), "passive_bounce_err": (e["passive"]["body_z"], 1e-3),
@@ -698,7 +698,7 @@ def ch6(ctx) -> ItemOutput:
                       rows)
     notes = [HALF_NOTE, "Errors are RMS(travel − reference travel) after 0.5 s; the non-adaptive run keeps the "
              "nominal feedforward and feedback gains (adaptation off). Bump (12 s) and sine (24 s) carry the mode I "
-             "drifts of reproductions/_thesis_drift.py (springs −15 % over T/6–5T/6, the secondary damper −40 % at "
+             "drifts of reproductions/_thesis_drift.py (springs −20 % over T/6–5T/6, the secondary damper −50 % at "
              "T/2); the random road has none."]
     return ItemOutput(claims, key=key, figure=fig, notes=notes, tables=[table])
 
