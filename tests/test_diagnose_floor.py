@@ -99,3 +99,27 @@ def test_recolour_keeps_the_white_floor_when_the_residual_is_model_error():
     floors = {c: {"value": float(np.std(white[:, i])), "source": "estimated (PSD top band)",
                   "nrmse": float(np.std(white[:, i]) / sel.prob.scale[i])} for i, c in enumerate(chans)}
     assert sel.recolour(floors, fr) == []
+
+
+def test_a_polish_that_rises_never_replaces_the_kept_fit(monkeypatch):
+    """The kept candidate is refitted from its optimum; when that refit comes out worse (it started
+    elsewhere), the trial's fit stays (lag case: 0.020 → 0.21 held out was kept, and a freed unsprung mass
+    was named for restoring it)."""
+    import suspension_sim.diagnose.select as S
+
+    trial = types.SimpleNamespace(cost=1e-3, P={"tau": 0.030}, name="trial")
+    worse = types.SimpleNamespace(cost=5e-2, P={"tau": 0.025}, name="worse")
+    better = types.SimpleNamespace(cost=9e-4, P={"tau": 0.0301}, name="better")
+    sel = Selector.__new__(Selector)
+    sel.prob, sel.log, sel.min_rel_drop = None, lambda m: None, 0.05
+    monkeypatch.setattr(S, "_with_fit", lambda spec, fr: spec)
+    monkeypatch.setattr(S, "fit", lambda *a, **k: worse)
+    assert sel._polish(None, trial, 0, 100, 100) is trial
+    monkeypatch.setattr(S, "fit", lambda *a, **k: better)
+    assert sel._polish(None, trial, 0, 100, 100) is better
+    # screened on part of the training window: the whole-window refit is judged on held-out data
+    out = {"trial": 0.02, "better": 0.02, "worse": 0.2}
+    sel._test_errors = lambda f: np.full((10, 1), out[f.name])
+    seq = iter([better, worse])
+    monkeypatch.setattr(S, "fit", lambda *a, **k: next(seq))
+    assert sel._polish(None, trial, 0, 50, 100) is better

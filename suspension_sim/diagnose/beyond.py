@@ -34,6 +34,18 @@ def _terms(s, v):
             "s*|v|": s * np.abs(v)}
 
 
+def measured_in_model_frame(prob, outputs: dict, offsets) -> dict:
+    """The measured outputs less the fitted channel offsets (sensor bias, a position sensor zeroed elsewhere):
+    the travel the model's forces act on, not the sensor's reading."""
+    if offsets is None:
+        return outputs
+    out = dict(outputs)
+    for i, c in enumerate(prob.channels):
+        if c in out and offsets[i] != 0:
+            out[c] = out[c] - offsets[i]
+    return out
+
+
 def residual_force(D, fitres):
     """(travel, rate, residual force, noise of the force) on the training window, or None."""
     from scipy.signal import butter, filtfilt
@@ -44,6 +56,7 @@ def residual_force(D, fitres):
     o = rec.outputs
     a, b = D.train
     P = fitres.P
+    o = measured_in_model_frame(prob, o, fitres.offsets)
     if rec.kind == "quarter_car" and "body_acc" in o and "susp_travel" in o:
         s, acc, m = o["susp_travel"][a:b], o["body_acc"][a:b], P["sprung_mass"]
         sig = D.floors["body_acc"]["value"] * m

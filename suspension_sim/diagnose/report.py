@@ -240,9 +240,11 @@ def build_report(D: Diagnosis, out: Path, confirm: bool = True, plots: bool = Tr
                            D.prob.channels, D.floors, D.record.fs)
     loc_s_after = locate.spectra(resid_fin[D.train[0]:D.train[1]], {}, D.prob.channels, D.floors, D.record.fs)
     fmap = locate.force_map(D.prob, D.nominal.P, D.floors, *D.train,
-                            effects=[(e.label, e.type, e.corners, e.fixed) for e in D.nominal.spec.effects])
+                            effects=[(e.label, e.type, e.corners, e.fixed) for e in D.nominal.spec.effects],
+                            offsets=D.nominal.offsets)
     fmap_after = locate.force_map(D.prob, D.final.P, D.floors, *D.train,
-                                  effects=[(e.label, e.type, e.corners, e.fixed) for e in D.final.spec.effects])
+                                  effects=[(e.label, e.type, e.corners, e.fixed) for e in D.final.spec.effects],
+                                  offsets=D.final.offsets)
     conf = mujoco_confirm(D, out) if confirm else {"status": "skipped", "reason": "--no-confirm"}
     report = {
         "effects": effects,
