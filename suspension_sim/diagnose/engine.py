@@ -20,7 +20,8 @@ How a parameter set is simulated:
   actuator as ``gain·u(t − delay) + offset``, both reconstructed between their samples at the physics steps
   as the record's ``hold`` says (linear by default, or band-limited: :func:`.datafile.reconstruct`; the delay
   is continuous, while the ideal actuator's own ``delay`` is whole physics steps and shared by an ensemble);
-- the run starts at rest at equilibrium.
+- the run starts at rest at equilibrium, or (SDOF) at the position and rate ``init.pos``, ``init.vel`` of a
+  parameter set (a held-out record's state estimated from its first, unscored samples: ``Problem``).
 
 The damper element (``model: damper``) has no vehicle: its force is the effects' kernels evaluated at the
 prescribed displacement and rate.
@@ -384,6 +385,7 @@ class Engine:
         sim = self._sim(psets, n_samples)
         self._write_vehicle(sim, psets)
         self._components(sim, psets)
+        self._initial_state(sim, psets)
         res = sim.run()
         src = res[0].__dict__.get("_src")
         ch = src[1] if src is not None else {c: np.stack([r.ts[c].to_numpy() for r in res]) for c in res[0].ts}
@@ -420,6 +422,31 @@ class Engine:
         if L < n_samples:
             out[:, L:, :] = out[:, L - 1:L, :]
         return out
+
+    def _initial_state(self, sim, psets):
+        """SDOF: start each car at ``init.pos`` (the position output) and ``init.vel`` instead of at rest."""
+        if self.kind != "sdof" or not any("init.pos" in Pd or "init.vel" in Pd for Pd in psets):
+            sim._diag["init"] = None
+            return
+        x0 = np.array([float(Pd.get("init.pos", 0.0)) for Pd in psets])
+        v0 = np.array([float(Pd.get("init.vel", 0.0)) for Pd in psets])
+        if self._sag is not None:  # the position output carries the static sag; the joint starts at x0 − sag
+            x0 = x0 - self._sag["body"][:, 0]
+        sim._diag["init"] = (x0, v0)
+        if "reset" not in sim.__dict__:  # after the loop's reset (MuJoCo data to q = 0, v = 0): the initial state
+            m = sim.plant.model
+            dof = sim.plant.body_v[:, 0]
+            qadr = m.jnt_qposadr[m.dof_jntid[dof]]
+            base_reset = sim.reset
+
+            def reset(sim=sim, dof=dof, qadr=qadr, base_reset=base_reset):
+                base_reset()
+                init = sim._diag.get("init")
+                if init is not None:
+                    sim.plant.data.qpos[qadr] += init[0]
+                    sim.plant.data.qvel[dof] = init[1]
+
+            sim.reset = reset
 
     def _add_sag(self, out, psets):
         sg = self._sag
