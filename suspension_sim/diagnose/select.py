@@ -305,9 +305,15 @@ class Selector:
                 groups.setdefault(key, []).append(
                     (n, not (abs(fr.params[n] - ref) > 2.0 * fr.std.get(n, np.inf))))
         zero = [n for members in groups.values() if all(z for _, z in members) for n, _ in members]
+        # at the floor (xb = 0) there is nothing above the noise left to explain: "removes 10 % of the error
+        # above the floor" must not hold trivially (0 <= 0), or any freed parameter that soaks up a little
+        # model error (a wheel mass 0.4 % light) passes on the plain 5 % drop
+        at_floor = not xb > 0
         signif = z > self.z_min or xa <= 0.5 * xb
-        tr.kept = bool(tr.d_bic < 0 and signif and xa <= (1 - self.min_excess_drop) * xb
+        tr.kept = bool(tr.d_bic < 0 and signif and xa <= (1 - self.min_excess_drop) * xb and not at_floor
                        and Ea <= (1 - self.min_rel_drop) * Eb and not worse and not zero)
+        if at_floor and tr.d_bic < 0 and Ea < Eb:
+            tr.reason = f"rejected: the held-out error ({Eb:.4g}) is already at the noise floor"
         if worse:
             tr.reason = f"rejected: held-out error worse beyond the noise on {', '.join(worse)}"
         elif zero:
