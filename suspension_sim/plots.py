@@ -193,6 +193,10 @@ def plot_run(results, out_dir) -> list[Path]:
     if not results:
         return []
     written: list[Path | None] = []
+    # spectra need every sample: a long run's preview keeping every q-th instant (q > 1) would alias, so its
+    # PSD and gain plots are left out (its time plots show the preview)
+    full_rate = {k: r for k, r in results.items()
+                 if ((r.info or {}).get("streamed_log") or {}).get("preview_every", 1) == 1}
 
     def acc_label(ax, s, have, col):
         for line in ax.get_lines():
@@ -204,8 +208,8 @@ def plot_run(results, out_dir) -> list[Path]:
 
     written.append(_time_series(results, out_dir, "body_acceleration.png", "Body heave acceleration (c.g.)",
                                 "body_acc", "acceleration (m/s²)", per_corner=False, decorate=acc_label))
-    if any("body_acc" in r.ts for r in results.values()):
-        written.append(_save(plot_psd_comparison(results, "body_acc"), out_dir / "body_acc_psd.png"))
+    if any("body_acc" in r.ts for r in full_rate.values()):
+        written.append(_save(plot_psd_comparison(full_rate, "body_acc"), out_dir / "body_acc_psd.png"))
 
     def gaps(ax, s, have, col):
         g = set()
@@ -245,7 +249,8 @@ def plot_run(results, out_dir) -> list[Path]:
     # random-road runs: gain factors and PSDs against the reference model of adaptive controllers
     from .plots_frequency import plot_frequency
 
-    written.extend(plot_frequency(results, out_dir))
+    if full_rate:
+        written.extend(plot_frequency(full_rate, out_dir))
     return [p for p in written if p is not None]
 
 

@@ -192,3 +192,45 @@ def test_streamed_cli_run_is_byte_identical_when_rerun_and_reads_like_a_whole_on
     ma = json.loads((tmp_path / "a" / "summary.json").read_text())
     mw = json.loads((tmp_path / "w" / "summary.json").read_text())
     _close(ma["metrics"], mw["metrics"])
+
+
+def test_a_streamed_batch_keeps_its_time_series_and_metrics(tmp_path, monkeypatch):
+    """A sweep whose runs stream (ensembles of 2 cars, chunks of 0.31 s) keeps each run's time series and
+    metrics as the same sweep with the logs held whole."""
+    from suspension_sim.batch import run_batch
+
+    base = dict(QUARTER, sim={"duration": 1.5, "seed": 2})
+    sw = {"name": "s", "base": base, "lists": {"controller.params.c_sky": [1500.0, 2500.0, 3500.0]},
+          "keep_timeseries": True, "ensemble_size": 2}
+    path = tmp_path / "sweep.yaml"
+    path.write_text(yaml.safe_dump(sw, sort_keys=False))
+    _whole(monkeypatch)
+    whole = run_batch(str(path), out=tmp_path / "w", workers=1).summary
+    _chunked(monkeypatch, "0.31")
+    streamed = run_batch(str(path), out=tmp_path / "s", workers=1).summary
+    assert list(streamed["status"]) == ["ok"] * 3
+    for (_, a), (_, b) in zip(streamed.iterrows(), whole.iterrows()):
+        _close({k: a[k] for k in a.index if k.startswith("metric.")}, {k: b[k] for k in b.index if k.startswith("metric.")})
+        fa, fb = (tmp_path / d / "timeseries" / f"{a['hash']}.parquet" for d in ("s", "w"))
+        assert pq.ParquetFile(fa).metadata.num_row_groups > 1
+        pd.testing.assert_frame_equal(pd.read_parquet(fa), pd.read_parquet(fb), check_exact=True)
+
+
+def test_plots_of_a_long_run_come_from_its_bounded_preview(tmp_path, monkeypatch):
+    """The preview keeps every q-th log instant (q = 3 here): time plots are drawn from it, spectra (which
+    it would alias) are left out, and the metrics still come from every sample."""
+    import suspension_sim.stream as stream
+    from suspension_sim.plots import plot_run
+
+    monkeypatch.setattr(stream, "PREVIEW_MB", 1e-6)  # the preview's floor: 1000 instants
+    _chunked(monkeypatch)
+    sc = parse_scenario(dict(QUARTER, sim={"duration": 3.0, "seed": 2}))
+    res = Simulation([sc]).run()[0]
+    assert res.info["streamed_log"]["preview_every"] == 3
+    pv = res.preview_frame()
+    assert len(pv) == 1000 and np.allclose(np.diff(pv["t"]), 0.003) and list(pv.columns) == list(res.ts.columns)
+    names = {p.name for p in plot_run(res, tmp_path / "plots")}
+    assert {"body_acceleration.png", "suspension_travel.png", "tire_load.png"} <= names
+    assert "body_acc_psd.png" not in names
+    _whole(monkeypatch)
+    _close(res.metrics, Simulation([sc]).run()[0].metrics)
