@@ -100,3 +100,28 @@ def test_fixed_gain_soc_goes_unstable_rescheduled_and_mrac_do_not(varying):
     # K·δ_st share) and still sits low once the load is gone
     assert np.mean(win("passive", "body_z", 9.0, 12.0)) < -0.2
     assert np.mean(win("passive", "body_z")) < -0.05
+
+
+def test_no_weights_give_the_thesis_placement_of_the_soc(request, nominal):
+    """The thesis (no weights given) puts the SOC better than the MRAC at low frequency but with more rattle space
+    and more actuator work.  The two ends of the weight range each give part of it, never all: a large ρ1 wins at
+    low frequency with less rattle and less work than the MRAC; tiny ρ1, ρ2 buy more rattle and more work at a
+    far worse low-frequency response (the cost's ẍ² term already prices F)."""
+    def edit(raw):
+        raw["sim"]["duration"] = 24.0
+        raw["variants"] = {"stiff": {"controller": {"params": {"rho1": 1.0e4}}},
+                           "cheap": {"controller": {"params": {"rho1": 0.01, "rho2": 1.0e-9}}}}
+
+    out = run_variants(request.config.rootpath, "thesis_ch5_nominal", edit)
+    m = nominal["mrac"]
+
+    def rattle(ts):
+        return float(np.sqrt(np.mean(ts.travel[ts.t > 6] ** 2)))
+
+    def work(ts):
+        s = ts[ts.t > 6]
+        return float(np.mean(np.abs(s.actuator_force * s.travel_rate)))
+
+    low = {k: band(t, "body_z", 0.1, 0.5) for k, t in (("stiff", out["stiff"]), ("cheap", out["cheap"]), ("mrac", m))}
+    assert low["stiff"] < low["mrac"] and rattle(out["stiff"]) < rattle(m) and work(out["stiff"]) < work(m)
+    assert rattle(out["cheap"]) > rattle(m) and work(out["cheap"]) > work(m) and low["cheap"] > 10 * low["mrac"]
