@@ -234,3 +234,34 @@ def test_plots_of_a_long_run_come_from_its_bounded_preview(tmp_path, monkeypatch
     assert "body_acc_psd.png" not in names
     _whole(monkeypatch)
     _close(res.metrics, Simulation([sc]).run()[0].metrics)
+
+
+def test_a_long_run_drives_a_periodic_iso8608_road_of_bounded_size():
+    """The road's memory does not grow with the duration either: past 20 km the ISO 8608 profile is one
+    20 km period of the inverse FFT (periodic by construction), repeated without a seam; a shorter road is
+    generated as before."""
+    from suspension_sim.roads._common import GriddedProfile, PeriodicProfile
+    from suspension_sim.roads.base import RoadContext
+    from suspension_sim.roads.iso8608 import MAX_LENGTH, Iso8608, Iso8608Params, iso8608_psd
+
+    p = Iso8608Params(road_class="C")
+    ctx = dict(wheelbase=0.0, mean_speed=20.0, dt=5e-4)
+    short = Iso8608(p, np.random.default_rng(1), RoadContext(duration=100.0, distance=2000.0, **ctx))
+    assert type(short.profiles[0]) is GriddedProfile
+    sizes = []
+    for dur in (1e4, 1e5):
+        road = Iso8608(p, np.random.default_rng(1), RoadContext(duration=dur, distance=20.0 * dur, **ctx))
+        prof = road.profiles[0]
+        assert isinstance(prof, PeriodicProfile) and MAX_LENGTH <= prof.period < 1.2 * MAX_LENGTH
+        sizes.append(prof.z.size)
+        x = np.linspace(10.0, 3 * prof.period, 1_500_001)
+        z = road.height(0.0, x)
+        assert np.allclose(road.height(0.0, x + prof.period), z, rtol=0, atol=1e-12)  # periodic
+        assert np.abs(road.height(0.0, prof.x0 + prof.period + np.array([-1e-7, 1e-7])) - prof.z[0]).max() < 1e-6
+        from scipy import signal
+
+        f, P = signal.welch(z, fs=1 / (x[1] - x[0]), nperseg=2**14)
+        band = (f > 0.05) & (f < 2.0)
+        ratio = P[band] / iso8608_psd(f[band], p.gd, p.waviness)
+        assert 0.8 < np.median(ratio) < 1.25  # still the class-C road
+    assert sizes[0] == sizes[1]  # 1e4 s and 1e5 s: the same profile size

@@ -25,6 +25,11 @@ Either way E[z²] = Σ Gd(n_k) Δn ≈ ∫ Gd dn.  The grid profile is evaluated
 (track 0/1) use the same profile or independent ones (scenario ``road.tracks: same|independent``; the
 second track is drawn from the same seeded generator after the first).
 
+A run longer than :data:`MAX_LENGTH` (20 km: 1000 s at 20 m/s) drives a periodic road instead: the profile is
+generated over 20 km (the inverse FFT makes it periodic, with Δn = 1/20 km) and repeated without a seam
+(:class:`~._common.PeriodicProfile`), so the road's memory (~4 doubles per sample, 8 samples per 0.35 m)
+does not grow with the duration.  Shorter runs are generated as before (same numbers for the same seed).
+
 ``fade_in`` (default 5 m): the profile is multiplied by a half-cosine ramp over the first 5 m after the
 start line x = 0 (0 before it), so every wheel stands on flat road at t = 0 (the rear wheels start at
 x = −wheelbase) and the run starts at the static equilibrium; 5 m is 0.25 s at 20 m/s, long against the
@@ -41,7 +46,7 @@ from scipy import fft as sfft
 
 from ..components import Params
 from ..registry import ROADS
-from ._common import GriddedProfile, generation_range, tracks_mode
+from ._common import GriddedProfile, PeriodicProfile, generation_range, tracks_mode
 from .base import Road
 
 N0 = 0.1  # cycles/m, ISO 8608 reference spatial frequency
@@ -83,6 +88,10 @@ class Iso8608Params(Params):
         return float(self.gd_n0) if self.gd_n0 is not None else CLASS_GD_N0[self.road_class]
 
 
+#: a run whose road is longer than this (m) drives a periodic road of this length (bounded memory)
+MAX_LENGTH = 20_000.0
+
+
 def generate_iso8608(p: Iso8608Params, rng: np.random.Generator, x0: float, x1: float):
     """One seeded profile on a regular grid starting at x0 covering at least [x0, x1]: (dx, z)."""
     dx = float(p.dx) if p.dx is not None else 1.0 / (8.0 * p.n_max)
@@ -115,11 +124,16 @@ class Iso8608(Road):
     def __init__(self, p, rng, ctx):
         super().__init__(p, rng, ctx)
         x0, x1 = generation_range(ctx, p.margin)
+        periodic = x1 - x0 > MAX_LENGTH  # a long run: one period of MAX_LENGTH, repeated (bounded memory)
         n_prof = 2 if (tracks_mode(ctx) == "independent" and ctx.n_tracks > 1) else 1
         self.profiles = []
         for _ in range(n_prof):
-            dx, z = generate_iso8608(p, rng, x0, x1)
-            self.profiles.append(GriddedProfile(x0, dx, z, p.fade_in))
+            if periodic:  # z of length N from the inverse FFT: one period N·dx (z[N] would be z[0])
+                dx, z = generate_iso8608(p, rng, x0, x0 + MAX_LENGTH)
+                self.profiles.append(PeriodicProfile(x0, dx, z, p.fade_in))
+            else:
+                dx, z = generate_iso8608(p, rng, x0, x1)
+                self.profiles.append(GriddedProfile(x0, dx, z, p.fade_in))
 
     def height(self, t, x, track=0):
         return self.profiles[min(track, len(self.profiles) - 1)](x)
