@@ -188,3 +188,23 @@ def test_reproduce_toscano(tmp_path):
     assert s["varying"]["claims"][0]["verdict"] in ("partly", "not")
     for item in ("constant", "varying"):
         assert (tmp_path / "toscano" / f"{item}.png").stat().st_size < 150_000
+
+
+def test_step_halving_text_says_what_was_halved():
+    """The page's step-halving line is read from the steps both runs used: both halved, or the physics step only
+    when an item holds its control step (the thesis's discrete laws)."""
+    def item(held):
+        def run(ctx):
+            sc = ctx.scenario("toscano_constant", ["sim.duration=0.01"])
+            if held:
+                sc.sim.control_dt = sc.sim.control_dt / ctx.step_factor
+            ctx.run({"c": sc})
+            return fw.ItemOutput([], key={"one": (1.0, 1.0)})
+        return run
+
+    for held, text in ((False, "physics and control steps are both halved"),
+                       (True, "physics step is halved (the control step is held)")):
+        it = fw.Item("x", "x", item(held))
+        r = fw.run_item(it, converge=True)
+        md = fw.item_markdown(fw.Source("s", "s", "p", [it]), it, r)
+        assert text in md, md
