@@ -123,3 +123,14 @@ def test_a_polish_that_rises_never_replaces_the_kept_fit(monkeypatch):
     seq = iter([better, worse])
     monkeypatch.setattr(S, "fit", lambda *a, **k: next(seq))
     assert sel._polish(None, trial, 0, 50, 100) is better
+
+
+def test_recolour_leaves_a_white_channel_with_its_top_band_floor():
+    rng = np.random.default_rng(6)
+    noise = 0.03 * rng.standard_normal((N, 2))
+    Y = np.column_stack([np.sin(np.arange(N) / 50.0), np.cos(np.arange(N) / 70.0)]) + noise
+    sel, chans = _selector(Y, -noise)
+    floors = {c: {"value": noise_floor(Y[:, i], FS), "source": "estimated (PSD top band)",
+                  "nrmse": noise_floor(Y[:, i], FS) / sel.prob.scale[i]} for i, c in enumerate(chans)}
+    assert sel.recolour(floors, types.SimpleNamespace(spec=None, P={}, offsets=None)) == []
+    assert all(abs(floors[c]["value"] / 0.03 - 1) < 0.1 for c in chans)

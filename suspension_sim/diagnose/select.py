@@ -257,7 +257,8 @@ class Selector:
         raised = []
         for i, c in enumerate(chans):
             std, predictable = est[i]
-            if c in self.user_floors or predictable > NOISE_LIKE or std <= floors[c]["value"]:
+            # white noise: the two estimates agree (within their scatter), and the top-band one stays
+            if c in self.user_floors or predictable > NOISE_LIKE or std <= 1.1 * floors[c]["value"]:
                 continue
             floors[c] = {"value": std, "source": "estimated (residual not predictable from the inputs or the "
                                                  "other channels: coloured noise)",
