@@ -27,7 +27,30 @@ WORDS = {
 }
 
 
+STOP_QUANTILES = (0.7, 0.8, 0.9, 0.95, 0.98)  # gaps of the hinge (stop) terms: quantiles of |travel|
+
+
 def _terms(s, v):
+    """Candidate terms: powers and products of travel and rate, and hinges (a stop in extension or in
+    compression beyond a gap; gaps at quantiles of |travel|, since a polynomial fitted to a one-sided stop
+    does not carry over to larger strokes)."""
+    hinge = {}
+    for g in np.unique(np.round(np.quantile(np.abs(s), STOP_QUANTILES), 4)):
+        if g > 0:
+            hinge[f"max(s-{g:.4g},0)"] = np.maximum(s - g, 0.0)
+            hinge[f"min(s+{g:.4g},0)"] = np.minimum(s + g, 0.0)
+    return {**_poly_terms(s, v), **hinge}
+
+
+def _words(name: str, cf: float) -> str:
+    if name[:6] in ("max(s-", "min(s+"):
+        side = "extension" if name[:6] == "max(s-" else "compression"
+        what = "a stop" if cf < 0 else "a force pulling further (not a stop)"
+        return f"{what} in {side} beyond {name[6:-3]} m, {abs(cf):.3g} N/m"
+    return f"{WORDS.get(name, name)} ({'pushes the body up' if cf > 0 else 'resists'} for positive {name})"
+
+
+def _poly_terms(s, v):
     return {"s": s, "v": v, "s^2": s ** 2, "v^2": v ** 2, "s^3": s ** 3, "v^3": v ** 3, "|s|": np.abs(s),
             "|v|": np.abs(v), "sign(v)": np.tanh(v / (0.02 * np.std(v) + 1e-12)), "s|s|": s * np.abs(s),
             "v|v|": v * np.abs(v), "s*v": s * v, "s^2*v": s * s * v, "s*v^2": s * v * v, "|s|*v": np.abs(s) * v,
@@ -130,8 +153,7 @@ def propose(D, fitres, max_terms: int = 3) -> dict | None:
     coef, *_ = np.linalg.lstsq(X[:, idx], r, rcond=None)
     terms = [(names[i], float(cf)) for i, cf in zip(idx, coef)]
     eq = "F_extra = " + " ".join(f"{cf:+.4g}·{nm}" for nm, cf in terms)
-    words = "; ".join(f"{WORDS.get(nm, nm)} ({'pushes the body up' if cf > 0 else 'resists'} for positive "
-                      f"{nm})" for nm, cf in terms)
+    words = "; ".join(_words(nm, cf) for nm, cf in terms)
     return {"equation": eq, "terms": {nm: cf for nm, cf in terms}, "in_words": words,
             "heldout_variance_explained": float(expl), "rms_residual_force": float(np.std(r)),
             "noise_force": float(sig), "note": "a proposal from sparse regression (pysindy STLSQ) on the residual "

@@ -1,4 +1,5 @@
-"""The noise floor of `diagnose` when the sensor noise is coloured (fast: no simulation).
+"""Key decisions of `diagnose` on hard records, fast (no simulation): the noise floor when the sensor noise is
+coloured, a polish that must not replace a better fit, and a law beyond the library at a stop's gap.
 
 The top-band estimate (median PSD at 60–95 % of Nyquist, taken as white) reads low-passed noise as a
 fraction of itself, so a null record looked 4× above its floor ("unexplained").  Noise is what nothing in
@@ -134,3 +135,30 @@ def test_recolour_leaves_a_white_channel_with_its_top_band_floor():
                   "nrmse": noise_floor(Y[:, i], FS) / sel.prob.scale[i]} for i, c in enumerate(chans)}
     assert sel.recolour(floors, types.SimpleNamespace(spec=None, P={}, offsets=None)) == []
     assert all(abs(floors[c]["value"] / 0.03 - 1) < 0.1 for c in chans)
+
+
+def test_beyond_proposes_a_one_sided_stop_at_its_gap_from_an_offset_travel_sensor():
+    """A jounce bumper (compression only, 2.5 cm, 150 kN/m) is not the library's symmetric stop; powers of
+    travel fitted to it do not carry over to larger strokes (held-out share < 0: no proposal).  Hinge terms
+    at quantiles of |travel| do, and the travel is taken less its fitted offset (sensor zeroed 8 mm off)."""
+    from suspension_sim.diagnose import beyond
+
+    rng = np.random.default_rng(7)
+    t = np.arange(N) / FS
+    s = lfilter([1.0], [1, -1.96, 0.9608], rng.standard_normal(N))
+    s = 0.012 * s / np.std(s)
+    v = np.gradient(s, 1 / FS)
+    m, k, c, k_stop, gap = 520.0, 38000.0, 2600.0, 1.5e5, 0.025
+    acc = (-k * s - c * v + k_stop * np.maximum(-gap - s, 0.0)) / m
+    outs = {"body_acc": acc + 0.01 * rng.standard_normal(N), "susp_travel": s + 0.008}
+    rec = types.SimpleNamespace(kind="quarter_car", outputs=outs, inputs={"road": 0 * t}, fs=FS, dt=1 / FS)
+    D = types.SimpleNamespace(record=rec, prob=types.SimpleNamespace(channels=list(outs)), train=(0, N),
+                              floors={"body_acc": {"value": 0.01}})
+    fr = types.SimpleNamespace(P={"sprung_mass": m, "spring_stiffness": k, "damping": c},
+                               offsets=np.array([0.0, 0.008]), spec=types.SimpleNamespace(effects=[]))
+    pr = beyond.propose(D, fr)
+    assert pr is not None and pr["heldout_variance_explained"] > 0.5, pr
+    assert all(n.startswith("min(s+") for n in pr["terms"]), pr
+    assert all(abs(float(n[6:-3]) - gap) < 0.005 for n in pr["terms"]), pr
+    assert abs(-sum(pr["terms"].values()) / k_stop - 1) < 0.3, pr
+    assert "stop in compression" in pr["in_words"]
