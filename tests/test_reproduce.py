@@ -138,6 +138,7 @@ def test_reproduce_thesis(tmp_path):
     # Ch. 3 adaptation: from 30 % wrong gains the printed law follows to < 0.2 mm, adaptation off stays ≈ 3 mm
     ka = s["ch3_adaptation"]["key"]
     assert ka["follow_adaptive_40_60"] < 2e-4 < 2e-3 < ka["follow_nonadaptive_40_60"]
+    assert s["ch3_dirt"]["key"]["passive_level"] < -0.2 and abs(s["ch3_dirt"]["key"]["mrac_level"]) < 0.01
     # Ch. 5: no pair of SOC weights gives all of the thesis's nominal sub-claims
     assert s["ch5"]["key"]["sweep_all_hits"] == 0
     # Ch. 4: level held, model following not better than passive (friction lock)

@@ -173,3 +173,12 @@ def test_adaptation_to_a_plant_that_differs_from_the_design(adaptation):
     th = adaptation["blowoff_adaptive"]
     d0, d1 = (nearest_star(np.array([th[f"ctrl.theta.{j}"].iloc[i] for j in range(5)]), star, v, s)[0] for i in (0, -1))
     assert d1 < 0.5 * d0
+
+
+def test_dirt_road_mode_two_passive_sags_adaptive_keeps_level(dirt):
+    """Fig. 3.11: with mode II (applied from 0 s, not re-levelled) the passive rig has a static deflection of
+    (100·g + 0.1·K*·δ_st)/(0.9·K*) = 0.27 m; the adaptive one keeps its level (through our θ_d)."""
+    a, p = dirt["mrac"].ts, dirt["passive"].ts
+    expected = (100 * G + 0.1 * 250 * G) / (0.9 * 5000)
+    assert -np.mean(p.body_z[p.t > 8]) == pytest.approx(expected, rel=0.05)
+    assert abs(np.mean(a.body_z[a.t > 8])) < 0.01
