@@ -179,6 +179,9 @@ def bang_bang(ctx) -> ItemOutput:
         for k, s in v.items():
             if k == "passive" and a != 4.0:
                 continue
+            # the step-halving run halves the physics step only: the sampled near-sgn law chatters with an
+            # amplitude set by its 1 ms control period, which is part of the law as run (the page shows 0.5 ms)
+            s.sim.control_dt = s.sim.control_dt / ctx.step_factor
             runs[(lab, k)] = s
     res = ctx.run({f"{lab}|{k}": s for (lab, k), s in runs.items()}, label="fallah bang-bang")
     rows, key = [], {}
@@ -232,7 +235,11 @@ def bang_bang(ctx) -> ItemOutput:
     fig.suptitle("Fallah in the bang-bang regime: 5 m bump, sigmoid slope a = 1000 s/m (≈ sgn), ideal vs noisy sensors",
                  fontsize=9)
     fig.tight_layout()
-    return ItemOutput(claims, key=key, figure=fig, tables=[table])
+    notes = ["Step halving here halves the physics step and holds the 1 ms control step: near sgn, the sampled law "
+             "chatters with an amplitude set by the control period, so halving that changes the law as run, not the "
+             "accuracy of the simulation (5 m bump, a = 1000, ideal sensors: 2.04× passive at 1 ms, 0.87× at "
+             "0.5 ms; noisy: 6.1× and 6.5×)."]
+    return ItemOutput(claims, key=key, figure=fig, tables=[table], notes=notes)
 
 
 SOURCES.register("fallah")(Source(
