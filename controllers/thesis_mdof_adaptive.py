@@ -31,7 +31,7 @@ goes unstable at the control step): a σ-leakage on the integral parts and a bou
 ẅ: the derivative of the measured base velocity (``road_vel``) over the control step (a base
 accelerometer in practice).  Sensors: ``travel`` (z_s, z_p), ``travel_rate``, ``road``, ``road_vel``.
 Signals: ``ref_z.0/1`` (reference rattle spaces), ``err.0/1``, ``ref_acc`` (reference secondary-mass
-absolute acceleration), ``kp.k``, ``uax.k``.
+absolute acceleration), ``kp.k``, ``kv.k``, ``uax.k``.
 
 The law is the numba kernel ``_kernel`` for one car (the base Controller broadcasts it over an ensemble,
 the compiled loop inlines it); tests/test_kernels_thesis.py checks it against the equations above.
@@ -238,6 +238,6 @@ class MDOFAdaptive(Controller):
     def kernel_signals(self):
         if not hasattr(self, "_kgo"):
             self.kernel_data()
-        gkp, gua = self._kgo["kp"][1], self._kgo["uax"][1]
+        gkp, gkv, gua = self._kgo["kp"][1], self._kgo["kv"][1], self._kgo["uax"][1]
         return {"ref_z": (_ST_ZM, _ST_ZM + 2), "err": (_ST_E, _ST_E + 2), "ref_acc": (_ST_RA, _ST_RA + 1),
-                "ref_x": (_ST_RX, _ST_RX + 1), "kp": (gkp, gkp + 4), "uax": (gua, gua + 2)}
+                "ref_x": (_ST_RX, _ST_RX + 1), "kp": (gkp, gkp + 4), "kv": (gkv, gkv + 4), "uax": (gua, gua + 2)}
