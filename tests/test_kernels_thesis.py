@@ -449,7 +449,7 @@ def mdof_reference(c, run, i, seen=None):
         ref.push(w)
         out.append((np.linalg.solve([[1.0, 0.0], [-1.0, 1.0]], tot),
                     {"ref_z": Zm, "err": E, "ref_acc": xa[0], "ref_x": xr[0], "kp": G["kp"].ravel(),
-                     "uax": G["uax"][:, 0]}))
+                     "kv": G["kv"].ravel(), "uax": G["uax"][:, 0]}))
     return out
 
 
