@@ -173,6 +173,25 @@ def test_nothing_is_kept_once_the_held_out_error_is_at_the_noise_floor(monkeypat
         assert kept or "noise floor" in tr.reason
 
 
+def test_the_search_does_not_depend_on_the_number_of_threads():
+    """Candidates are fitted side by side in threads (each with its own simulations): one thread and two give
+    the same trials, in the same order, with the same fitted numbers."""
+    from suspension_sim.diagnose.model import load_model
+    from suspension_sim.diagnose.select import Selector
+
+    d = truth.simulate_truth("quarter_car", 2, 1000, {"coulomb_friction": {"force": 180.0}}, seed=7, road_rms=0.01,
+                             noise=0.02, outputs=["body_acc", "susp_travel"])
+    rec = _record("quarter_car", d, ["body_acc", "susp_travel"])
+    runs = []
+    for workers in (1, 2):
+        D = Selector(rec, load_model(QC), workers=workers, max_effects=1,
+                     candidates=["coulomb_friction", "cubic_stiffness", "parameter"]).run()
+        runs.append([(t.name, t.kept, t.reason, t.params, t.d_bic) for t in D.trials if t.applicable])
+    assert runs[0] == runs[1]
+    assert [n for n, kept, *_ in runs[0] if kept] == ["coulomb_friction"]
+    assert len(runs[0]) >= 5
+
+
 def test_candidates_come_from_the_registry_declarations():
     """Every registered effect with a free-parameter declaration is a candidate (no list in diagnose), the
     ideal actuator's declared parameters give actuator_lag and actuator_delay, and a half car also gets

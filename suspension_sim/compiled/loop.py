@@ -28,13 +28,14 @@ import importlib.util
 import os
 import sys
 import tempfile
+import threading
 import time as _time
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
-TEMPLATE_VERSION = 15
+TEMPLATE_VERSION = 16
 
 # PlantState fields a compiled sensor may read (Sensor.kernel_field), by code
 FIELDS = ("body_pos", "body_vel", "body_acc", "corner_body_pos", "corner_body_vel", "corner_body_acc",
@@ -108,6 +109,7 @@ def _source_digest() -> str:
 
 _DIGEST = None
 _MODULES: dict = {}
+_LOAD_LOCK = threading.Lock()
 
 
 def _cache_dir() -> Path:
@@ -227,7 +229,7 @@ def field_value(f, col, aux, i, jr, qpos, qvel, ten_len, ten_vel, acc, body_q, b
     return a_st[i, col, aux]
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
          road_q, road_v, road_servo, susp_t, tire_t, eff_s, eff_t, act, wheel_q, wheel_v, body_q, body_v,
          free_q, free_v, has_tire, has_effects, has_tire_effects, kt, ct, Jb, road_dof, lsp, rest0, tire_ct,
@@ -437,10 +439,16 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
 
 
 def load_module(effects, actuator, controller, sensors=()):
-    """The compiled loop module for this combination (generated, written and imported once per process)."""
+    """The compiled loop module for this combination (generated, written and imported once per process; the
+    loop releases the GIL, so threads may run simulations side by side)."""
     key = (tuple(effects), actuator, controller, tuple(sensors))
     mod = _MODULES.get(key)
-    if mod is None:
+    if mod is not None:
+        return mod
+    with _LOAD_LOCK:  # threads (diagnose fits candidates in parallel) import and compile a module once
+        mod = _MODULES.get(key)
+        if mod is not None:
+            return mod
         src = generate_source(effects, actuator, controller, sensors)
         h = hashlib.sha256((_source_digest() + src).encode()).hexdigest()[:20]
         name = f"suspension_sim_loop_{h}"

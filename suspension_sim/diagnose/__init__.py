@@ -20,14 +20,15 @@ def diagnose(data, model, out, *, mapping=None, fs=None, split: float = 0.7, tes
              candidates=None, max_effects: int = 3, rows=None, test_rows=None, nan: str = "error", sort=False,
              dedupe=False, resample=False, confirm: bool = True, plots: bool = True, log=None,
              screen_samples: int = 20000, test_skip=None, demean: bool = False, plausibility: bool = True,
-             input_hold: str = "linear") -> dict:
+             input_hold: str = "linear", workers: int | None = None) -> dict:
     """Run the whole workflow; returns the report dict (also written to ``out/report.json``).
 
     ``data``/``test``: file path(s) or :class:`~.io.Record`; ``model``: MODEL.yaml path or dict;
     ``floors``: {channel: noise/repeatability floor in channel units} overriding the estimate;
     ``plausibility=False`` fits even when :mod:`.plausibility` suspects the units (warnings only);
     ``input_hold``: what the measured inputs did between their samples (``linear``, ``bandlimited``, ``zoh``:
-    :func:`.datafile.reconstruct`)."""
+    :func:`.datafile.reconstruct`); ``workers``: threads fitting candidates side by side (default: the cores
+    available, at most 4; the result does not depend on it)."""
     from .io import Record, load_record
     from .model import load_model
     from .report import build_report
@@ -47,7 +48,8 @@ def diagnose(data, model, out, *, mapping=None, fs=None, split: float = 0.7, tes
 
     plausible(rec, spec, override=not plausibility, log=log)
     sel = Selector(rec, spec, split=split, test_record=trec, floors=floors, candidates=candidates,
-                   max_effects=max_effects, log=log, screen_samples=screen_samples, test_skip=test_skip)
+                   max_effects=max_effects, log=log, screen_samples=screen_samples, test_skip=test_skip,
+                   workers=workers)
     D = sel.run()
     rep = build_report(D, Path(out), confirm=confirm, plots=plots)
     return rep

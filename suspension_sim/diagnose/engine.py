@@ -28,6 +28,8 @@ prescribed displacement and rate.
 """
 from __future__ import annotations
 
+import threading
+
 import numba
 import numpy as np
 from suspension_sim.controllers.base import Controller
@@ -38,6 +40,7 @@ from ..registry import EFFECTS, VEHICLES
 MAX_DT = 5e-4  # physics step bound (s): the record's sample interval is divided into equal steps below this
 BIG = 1e6  # output value of a diverged parameter set
 K_EPS = 1e-6  # N/m: the stiffness a zero spring is built with (see Engine._scenario)
+_BUILD_LOCK = threading.Lock()
 
 
 # ------------------------------------------------------------------------------------------------------
@@ -148,13 +151,15 @@ class Engine:
         self.lag = lag
         self.hold = hold  # the inputs between their samples (datafile.reconstruct)
         self._held: dict = {}
+        # runs may come from several threads at once (select fits candidates in parallel): each thread has its
+        # own built simulations and its own per-run state (_entries, _sag)
+        self._tl = threading.local()
         self.sub = max(1, int(np.ceil(self.dt_rec / max_dt - 1e-9)))
         self.dt = self.dt_rec / self.sub
         self.channels = output_names(kind)
         self.N = len(next(iter(inputs.values())))
         # second order where the project's trapezoidal scheme applies (models with tires), else implicitfast
         self.integrator = "implicitfast"
-        self._sims: dict = {}
         if kind != "damper":
             self.vcls = VEHICLES.get(kind)
             self.writable = writable_params(kind)
@@ -173,6 +178,30 @@ class Engine:
             self.has_force = any(f is not None and np.any(f) for f in force)
             if all(c.has_tire for c in self.corners):
                 self.integrator = "trapezoidal"
+
+    @property
+    def _sims(self) -> dict:
+        """This thread's built simulations by (number of sets, samples, geometry)."""
+        d = getattr(self._tl, "sims", None)
+        if d is None:
+            d = self._tl.sims = {}
+        return d
+
+    @property
+    def _entries(self):
+        return getattr(self._tl, "entries", None)
+
+    @_entries.setter
+    def _entries(self, value):
+        self._tl.entries = value
+
+    @property
+    def _sag(self):
+        return getattr(self._tl, "sag", None)
+
+    @_sag.setter
+    def _sag(self, value):
+        self._tl.sag = value
 
     # --------------------------------------------------------------------------------------------------
     def _scenario(self, vparams: dict, n_samples: int):
@@ -201,13 +230,15 @@ class Engine:
                                     if k in self.vcls.Params.model_fields and k not in self.writable)))
         base = {k: v for k, v in self.vehicle_base.items() if k in self.vcls.Params.model_fields}
         key = (len(psets), n_samples, tuple(geo))
-        hit = self._sims.get(key)
+        sims = self._sims
+        hit = sims.get(key)
         if hit is not None:
             return hit
-        if len(self._sims) > 6:
-            self._sims.clear()
-        scs = [self._scenario({**base, **dict(g)}, n_samples) for g in geo]
-        sim = Simulation(scs)
+        with _BUILD_LOCK:  # (building a model is not thread-safe)
+            if len(sims) > 6:
+                sims.clear()
+            scs = [self._scenario({**base, **dict(g)}, n_samples) for g in geo]
+            sim = Simulation(scs)
         P = sim.plant
         m = P.model
         import mujoco
@@ -221,7 +252,7 @@ class Engine:
             "n_samples": n_samples,
         }
         sim._diag["J"], sim._diag["g0"] = _tendon_jacobian(m), _gravity(m, sim._diag["scratch"])
-        self._sims[key] = sim
+        sims[key] = sim
         return sim
 
     def _write_vehicle(self, sim, psets):

@@ -92,6 +92,17 @@ def incoherent_noise(resid: np.ndarray, inputs: np.ndarray | None = None, nper: 
     return out
 
 
+def default_workers() -> int:
+    """Threads that fit candidates side by side: the cores this process may use (at most 4)."""
+    import os
+
+    try:
+        n = len(os.sched_getaffinity(0))
+    except AttributeError:  # pragma: no cover - not on Linux
+        n = os.cpu_count() or 1
+    return max(1, min(4, n))
+
+
 @dataclass
 class Trial:
     name: str
@@ -228,6 +239,7 @@ class Selector:
         self.far = far
         self.placements = placements
         self.log = log or (lambda msg: None)
+        self.workers = default_workers() if workers is None else max(1, int(workers))
 
     # --------------------------------------------------------------------------------------------------
     def floors(self) -> dict:
@@ -344,6 +356,17 @@ class Selector:
 
     # --------------------------------------------------------------------------------------------------
     def run(self) -> Diagnosis:
+        """The search (module docstring).  Candidates of a round are fitted side by side in ``workers`` threads
+        (the compiled loop releases the GIL; each fit is independent, and the trials and the log keep the
+        library's order, so the result does not depend on the number of threads)."""
+        if self.workers <= 1:
+            return self._search(None)
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(self.workers, thread_name_prefix="diagnose") as pool:
+            return self._search(pool)
+
+    def _search(self, pool) -> Diagnosis:
         import time
 
         T = {}
@@ -388,22 +411,39 @@ class Selector:
                 fr = fit(self.prob, spec_c, a, bs, starts=[np.array(s0, float) for s0 in starts], max_nfev=25)
             except RuntimeError as err:
                 tr.applicable, tr.reason = False, f"fit failed: {err}"
-                trials.append(tr)
-                return None
+                return tr, None, None
             tr.params = {k: v for k, v in fr.params.items() if k not in current.params}
             self._judge(tr, fr, cur_screen, e_cur, floor_n, sizes)
             tr.seconds = time.perf_counter() - t1
-            trials.append(tr)
-            self.log(f"  round {rnd} {name:<36} ΔBIC {tr.d_bic:12.1f}  test NRMSE {tr.test_before:.4f} → "
-                     f"{tr.test_after:.4f}  z {tr.z:6.1f}  {tr.seconds:5.1f} s  {'KEPT' if tr.kept else tr.reason}")
-            return (list(cands), spec_c, tr, fr)
+            msg = (f"  round {rnd} {name:<36} ΔBIC {tr.d_bic:12.1f}  test NRMSE {tr.test_before:.4f} → "
+                   f"{tr.test_after:.4f}  z {tr.z:6.1f}  {tr.seconds:5.1f} s  {'KEPT' if tr.kept else tr.reason}")
+            return tr, msg, (list(cands), spec_c, tr, fr)
+
+        def attempts(jobs, order=None):
+            """Run attempt(*job) for every job, side by side in threads (each fit is independent); the trials
+            and log lines come in the order of ``order`` (Trials not tried, and job indices), else of the jobs.
+            Returns the results of the jobs that could be fitted, in order."""
+            outs = list(pool.map(lambda job: attempt(*job[0], **job[1]), jobs)) if pool is not None else \
+                [attempt(*job[0], **job[1]) for job in jobs]
+            done = []
+            for o in (range(len(jobs)) if order is None else order):
+                if isinstance(o, Trial):
+                    trials.append(o)
+                    continue
+                tr, msg, r = outs[o]
+                trials.append(tr)
+                if msg:
+                    self.log(msg)
+                if r is not None:
+                    done.append(r)
+            return done
 
         rnd = 0
         while len(added) < self.max_effects:
             rnd += 1
-            results = []
             prev = {t.name: t for t in trials if t.round == rnd - 1}
             in_model = {c.name for cs, _, _ in added for c in cs}
+            jobs, order = [], []
             for cand in lib:
                 if cand.name in in_model:
                     continue
@@ -412,11 +452,11 @@ class Selector:
                 if ok and pt is not None and pt.applicable and np.isfinite(pt.d_bic) and pt.d_bic >= 0:
                     ok, why = False, f"pruned: no training improvement in round {rnd - 1} (ΔBIC {pt.d_bic:+.1f})"
                 if not ok:
-                    trials.append(Trial(cand.name, rnd, False, why))
+                    order.append(Trial(cand.name, rnd, False, why))
                     continue
-                r = attempt([cand], rnd, current_spec, current, cur_screen, e_cur)
-                if r is not None:
-                    results.append(r)
+                order.append(len(jobs))
+                jobs.append((([cand], rnd, current_spec, current, cur_screen, e_cur), {}))
+            results = attempts(jobs, order)
             kept = [r for r in results if r[2].kept]
             Ecur = float(np.sqrt(np.mean(e_cur ** 2)))
             fl = float(np.sqrt(np.mean(floor_n ** 2)))
@@ -426,6 +466,7 @@ class Selector:
                                 key=lambda r: r[2].bic)[:self.beam]
                 self.log(f"  no single candidate kept at {Ecur / max(fl, 1e-12):.1f}× the noise floor: "
                          f"pairs of {', '.join(r[2].name for r in ok_res)}")
+                jobs = []
                 for i in range(len(ok_res)):
                     for j in range(i + 1, len(ok_res)):
                         ci, cj = ok_res[i][0][0], ok_res[j][0][0]
@@ -435,10 +476,9 @@ class Selector:
                         if key in tried_pairs:
                             continue
                         tried_pairs.add(key)
-                        r = attempt([ci, cj], rnd, current_spec, current, cur_screen, e_cur,
-                                    starts_from=(ok_res[i][3], ok_res[j][3]))
-                        if r is not None and r[2].kept:
-                            kept.append(r)
+                        jobs.append((([ci, cj], rnd, current_spec, current, cur_screen, e_cur),
+                                     {"starts_from": (ok_res[i][3], ok_res[j][3])}))
+                kept += [r for r in attempts(jobs) if r[2].kept]
             if not kept:
                 break
             cands, spec_c, tr, fr = min(kept, key=lambda r: r[2].bic)
