@@ -32,6 +32,10 @@ def test_reconstruct_between_samples():
     for h in ("linear", "bandlimited", "zoh"):  # on the samples every hold gives the samples; a constant stays one
         assert np.allclose(reconstruct(u, 1 / fs, k / fs, h), u, atol=1e-12)
         assert np.allclose(reconstruct(np.full(50, 2.5), 1 / fs, np.linspace(-0.1, 0.6, 77), h), 2.5, atol=1e-12)
+    # a time a rounding error before a sample (x − floor(x) rounds to 1.0; a fitted delay makes such times) is
+    # that sample, not a division by zero
+    near = np.array([-1e-17, 5 - 1e-16, np.nextafter(7.0, 0.0)]) / fs
+    assert np.allclose(reconstruct(u, 1 / fs, near, "bandlimited"), u[[0, 5, 7]], atol=1e-12)
 
 
 def test_bad_input_hold_is_a_one_line_error(tmp_path):

@@ -1,6 +1,7 @@
 """The discrepancy workflow on real measured data (../shared/data/real; skipped when absent).  Each diagnosis
-takes longer than 30 s on this 2-core machine, so these are ``slow`` tests (run with ``-m slow``); their
-numbers are in docs/diagnose.md (produced by benchmarks/diagnose_real.py, the same functions)."""
+takes minutes on this 2-core machine, so these are ``slow`` tests (run with ``-m slow``); their numbers are
+in docs/diagnose.md (produced by benchmarks/diagnose_real.py, the same functions).  The thresholds are the
+targets and published anchors (each data set's SOURCE.md), not what the code happened to reach."""
 from __future__ import annotations
 
 import sys
@@ -15,15 +16,25 @@ warnings.filterwarnings("ignore", category=RuntimeWarning)
 pytestmark = [pytest.mark.slow, pytest.mark.realdata]
 
 
-def test_silverbox_names_cubic_stiffness(real_data, tmp_path):
+def test_silverbox_names_cubic_stiffness_and_reaches_the_published_models(real_data, tmp_path):
     import diagnose_real
 
     r = diagnose_real.silverbox(tmp_path, real_data, log=lambda m: None)
-    assert r["named"][0] == "cubic_stiffness"
-    assert r["rmse_mV"]["multisine_after"] <= 1.0
-    assert r["rmse_mV"]["multisine_before"] > 3 * r["rmse_mV"]["multisine_after"]
-    # the arrow sets are reported, and the no-extrapolation arrow improves too
-    assert r["rmse_mV"]["arrow_no_extrapolation_after"] < r["rmse_mV"]["arrow_no_extrapolation_before"]
+    assert r["named"] == ["cubic_stiffness"]
+    mv = r["rmse_mV"]
+    # issue 13's target: the physical model as good as a five-parameter discrete linear model plus one cubic
+    # term (0.37 mV, SOURCE.md), near the best published (about 0.26–0.36 mV)
+    assert mv["multisine_after"] <= 0.4
+    # the calibrated linear model is the published linear one (about 7 mV; SOURCE.md's check 7.01 mV)
+    assert 5.0 < mv["multisine_before"] < 9.0
+    # the arrow within the training amplitudes: the discrete linear + cubic check reaches 0.37 mV there
+    assert mv["arrow_no_extrapolation_after"] <= 0.4
+    assert mv["arrow_no_extrapolation_after"] < mv["arrow_no_extrapolation_before"] / 10
+    # the fitted linear resonance is the third party's √b ≈ 68.5 Hz (SOURCE.md)
+    import math
+
+    f0 = math.sqrt(r["fitted"]["spring_stiffness"] / r["fitted"]["sprung_mass"]) / (2 * math.pi)
+    assert f0 == pytest.approx(68.5, abs=1.0)
 
 
 def test_emps_names_coulomb_friction(real_data, tmp_path):
@@ -31,6 +42,8 @@ def test_emps_names_coulomb_friction(real_data, tmp_path):
 
     r = diagnose_real.emps(tmp_path, real_data, log=lambda m: None)
     assert "coulomb_friction" in r["named"]
+    # SOURCE.md's own open-loop check (linear → + Coulomb, Euler at 1 kHz): test 17.2 → 9.0 mm
+    assert r["rmse_mm"]["test_after"] <= 9.0
     assert r["rmse_mm"]["test_after"] <= 0.6 * r["rmse_mm"]["test_before"]
     fit = r["fitted"]
     # the fitted physics is close to the organisers' IDIM-LS reference (M 95.1 kg, Fv 203.4 N s/m, Fc 20.4 N)
@@ -48,5 +61,7 @@ def test_quanser_claims_only_what_beats_the_repeatability_floor(real_data, tmp_p
     assert len(kept) == len(r["named"])
     for c in kept:  # every claimed effect removes error above the floor on the repeat run
         assert c["excess_after"] < c["excess_before"] and c["test_after"] < c["test_before"]
+    # SOURCE.md's rough check: linear 0.67 mm, + Coulomb friction 0.56 mm on the repeat run (floor 0.33 mm)
+    assert r["rmse_mm"]["test_after_body_pos"] <= 0.67
     # whatever is named, the held-out body error is not claimed below the repeat floor
     assert r["rmse_mm"]["test_after_body_pos"] >= 0.5 * floor

@@ -98,14 +98,14 @@ def _sinc_interp_py(u, x, K):
     for i in range(x.shape[0]):
         xi = x[i]
         n0 = int(np.floor(xi))
-        frac = xi - n0
-        if frac < 1e-12:  # on a sample
-            out[i] = u[min(max(n0, 0), n - 1)]
+        frac = xi - n0  # in [0, 1], 1.0 itself when xi is a tiny negative number (rounding)
+        if frac < 1e-12 or frac > 1.0 - 1e-12:  # on a sample
+            out[i] = u[min(max(n0 + (1 if frac > 0.5 else 0), 0), n - 1)]
             continue
         acc = 0.0
         wsum = 0.0
         for m in range(-K + 1, K + 1):
-            d = frac - m  # distance from sample n0 + m, in samples
+            d = frac - m  # distance from sample n0 + m, in samples (never 0 here)
             w = np.sin(np.pi * d) / (np.pi * d) * (0.42 + 0.5 * np.cos(np.pi * d / K) + 0.08 * np.cos(2 * np.pi * d / K))
             j = min(max(n0 + m, 0), n - 1)
             acc += w * u[j]
