@@ -39,8 +39,11 @@ def one(duration: float, tmp: Path, road: str = "iso8608") -> tuple[float, float
             f"{str(p)!r},'--out',{str(out)!r},'--quiet'];\ntry: app()\nexcept SystemExit: pass\n"
             "print('PEAK', resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)")
     t0 = time.perf_counter()
+    c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     wall = time.perf_counter() - t0
+    c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    one.cpu = (c1.ru_utime + c1.ru_stime) - (c0.ru_utime + c0.ru_stime)
     peak = [int(line.split()[1]) for line in r.stdout.splitlines() if line.startswith("PEAK")]
     if not peak:
         raise SystemExit(f"{duration:g} s failed: {r.stderr.strip()[-500:]}")
@@ -50,7 +53,7 @@ def one(duration: float, tmp: Path, road: str = "iso8608") -> tuple[float, float
 
 def main(durations, road="iso8608"):
     print(f"road: {road}")
-    print(f"{'simulated s':>12} {'wall s':>8} {'peak RSS MiB':>13} {'parquet MB':>11} {'MiB per sim. h':>15}")
+    print(f"{'simulated s':>12} {'wall s':>8} {'CPU s':>8} {'peak RSS MiB':>13} {'parquet MB':>11} {'MiB per sim. h':>15}")
     first = None
     with tempfile.TemporaryDirectory() as tmp:
         for d in durations:
@@ -58,7 +61,7 @@ def main(durations, road="iso8608"):
             if first is None:
                 first = (d, peak)
             slope = (peak - first[1]) / ((d - first[0]) / 3600.0) if d > first[0] else float("nan")
-            print(f"{d:>12g} {wall:>8.1f} {peak:>13.0f} {size / 1e6:>11.1f} {slope:>15.2f}", flush=True)
+            print(f"{d:>12g} {wall:>8.1f} {one.cpu:>8.1f} {peak:>13.0f} {size / 1e6:>11.1f} {slope:>15.2f}", flush=True)
 
 
 if __name__ == "__main__":
