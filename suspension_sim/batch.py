@@ -49,6 +49,7 @@ import itertools
 import json
 import math
 import os
+import shutil
 import time
 import traceback
 from dataclasses import dataclass, field
@@ -408,6 +409,11 @@ def _fmt_values(values: dict) -> str:
 # ------------------------------------------------------------------------------------------------------
 # running one ensemble (in a worker)
 # ------------------------------------------------------------------------------------------------------
+#: a kept time series larger than this (bytes; a long streamed run's file) goes from the worker to the batch
+#: folder by path (moved), not as bytes in the result row (local workers and local Dask share the disk)
+KEEP_BY_PATH_BYTES = 64e6
+
+
 class RunTimeout(RuntimeError):
     pass
 
@@ -496,8 +502,15 @@ def _run_group(good: list, sw: Sweep) -> dict:
         if sw.keep_timeseries:
             import io
 
-            if res.timeseries_file is not None:  # a streamed (long) run: its file, written as it ran
-                row["_timeseries"] = Path(res.timeseries_file).read_bytes()
+            src = res.timeseries_file
+            if src is not None and Path(src).stat().st_size > KEEP_BY_PATH_BYTES:
+                # a long streamed run: its file is handed over by path (moved into the batch folder by the
+                # Store), never read into memory; renamed first so the Result's clean-up leaves it alone
+                keep = Path(src).with_name(Path(src).name + ".batch")
+                os.replace(src, keep)
+                row["_timeseries_file"] = str(keep)
+            elif src is not None:  # a streamed run: its file, written as it ran
+                row["_timeseries"] = Path(src).read_bytes()
             else:
                 buf = io.BytesIO()
                 res.timeseries.to_parquet(buf, index=False)
@@ -711,6 +724,13 @@ class Store:
     def add(self, rows: list[dict]):
         for r in rows:
             ts = r.pop("_timeseries", None)
+            src = r.pop("_timeseries_file", None)
+            if src is not None:
+                self.ts_dir.mkdir(exist_ok=True)
+                try:
+                    shutil.move(src, self.ts_dir / f"{r['hash']}.parquet")
+                except OSError as err:  # a remote worker's file: not on this machine
+                    r["error"] = (r.get("error") or "") + f" time series not kept ({err.__class__.__name__})"
             if ts is not None:
                 self.ts_dir.mkdir(exist_ok=True)
                 tmp = self.ts_dir / f".{r['hash']}.tmp"

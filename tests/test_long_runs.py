@@ -194,10 +194,15 @@ def test_streamed_cli_run_is_byte_identical_when_rerun_and_reads_like_a_whole_on
     _close(ma["metrics"], mw["metrics"])
 
 
-def test_a_streamed_batch_keeps_its_time_series_and_metrics(tmp_path, monkeypatch):
+@pytest.mark.parametrize("by_path", [False, True])
+def test_a_streamed_batch_keeps_its_time_series_and_metrics(tmp_path, monkeypatch, by_path):
     """A sweep whose runs stream (ensembles of 2 cars, chunks of 0.31 s) keeps each run's time series and
-    metrics as the same sweep with the logs held whole."""
+    metrics as the same sweep with the logs held whole; large files go to the batch folder by path."""
+    import suspension_sim.batch as batch
     from suspension_sim.batch import run_batch
+
+    if by_path:
+        monkeypatch.setattr(batch, "KEEP_BY_PATH_BYTES", 0)
 
     base = dict(QUARTER, sim={"duration": 1.5, "seed": 2})
     sw = {"name": "s", "base": base, "lists": {"controller.params.c_sky": [1500.0, 2500.0, 3500.0]},
@@ -214,6 +219,7 @@ def test_a_streamed_batch_keeps_its_time_series_and_metrics(tmp_path, monkeypatc
         fa, fb = (tmp_path / d / "timeseries" / f"{a['hash']}.parquet" for d in ("s", "w"))
         assert pq.ParquetFile(fa).metadata.num_row_groups > 1
         pd.testing.assert_frame_equal(pd.read_parquet(fa), pd.read_parquet(fb), check_exact=True)
+    assert not list((tmp_path / "s" / "timeseries").glob(".*")) and list(streamed["error"]) == [""] * 3
 
 
 def test_plots_of_a_long_run_come_from_its_bounded_preview(tmp_path, monkeypatch):
