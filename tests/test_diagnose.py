@@ -192,6 +192,26 @@ def test_the_search_does_not_depend_on_the_number_of_threads():
     assert len(runs[0]) >= 5
 
 
+def test_screening_window_is_short_only_where_the_record_is_at_its_level():
+    """A long record is screened on its first 8000 samples when they carry its excitation level; a record whose
+    excitation grows is screened on more of it (here: all of it); a short one is not screened."""
+    from suspension_sim.diagnose.model import load_model
+    from suspension_sim.diagnose.select import Selector
+
+    rng = np.random.default_rng(3)
+    n = 50000
+    t = np.arange(n) / 1000.0
+    steady = rng.standard_normal(n)
+    for road, end in ((0.01 * steady, 8000), (0.01 * steady * t / t[-1], 35000)):
+        rec = record_from_arrays("quarter_car", t, {"road": road}, {"body_acc": rng.standard_normal(n)})
+        sel = Selector(rec, load_model(QC))
+        assert sel.screen_end(*sel.train) == end
+    short = record_from_arrays("quarter_car", t[:20000], {"road": 0.01 * steady[:20000]},
+                               {"body_acc": steady[:20000]})
+    sel = Selector(short, load_model(QC))
+    assert sel.screen_end(*sel.train) == sel.train[1]
+
+
 def test_candidates_come_from_the_registry_declarations():
     """Every registered effect with a free-parameter declaration is a candidate (no list in diagnose), the
     ideal actuator's declared parameters give actuator_lag and actuator_delay, and a half car also gets

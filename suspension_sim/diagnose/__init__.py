@@ -19,7 +19,7 @@ from pathlib import Path
 def diagnose(data, model, out, *, mapping=None, fs=None, split: float = 0.7, test=None, floors=None,
              candidates=None, max_effects: int = 3, rows=None, test_rows=None, nan: str = "error", sort=False,
              dedupe=False, resample=False, confirm: bool = True, plots: bool = True, log=None,
-             screen_samples: int = 20000, test_skip=None, demean: bool = False, plausibility: bool = True,
+             screen_samples: int = 8000, test_skip=None, demean: bool = False, plausibility: bool = True,
              input_hold: str = "linear", workers: int | None = None) -> dict:
     """Run the whole workflow; returns the report dict (also written to ``out/report.json``).
 

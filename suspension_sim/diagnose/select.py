@@ -21,9 +21,12 @@ models.
 7. When the final held-out error is still far above the floor, the report says so: "unexplained: N× the
    noise floor".
 
-Speed: when the training part is longer than 1.5 × ``screen_samples`` (default 20 000: 20 s at 1 kHz),
-the screening fits use its first ``screen_samples`` samples and the chosen candidate is refitted on the
-whole training part.
+Speed: when the training part is longer than ``LONG`` (30 000 samples: 30 s at 1 kHz; or 1.5 ×
+``screen_samples`` if that is more), the screening fits use its first ``screen_samples`` samples (default
+8 000) and the chosen candidate is refitted on the whole training part.  The screening window is doubled
+until every input and output channel's RMS in it is at least half its RMS over the training part (an effect
+that depends on amplitude is screened at the record's level: a record whose excitation grows is screened on
+more of it).  Candidates of a round are fitted side by side in threads (:meth:`Selector.run`).
 """
 from __future__ import annotations
 
@@ -90,6 +93,9 @@ def incoherent_noise(resid: np.ndarray, inputs: np.ndarray | None = None, nper: 
         share = min(float(np.sum(cond)) / max(float(np.sum(Sii)), 1e-300), 1.0)
         out.append((float(np.sqrt(share * np.var(R[:, i]))), 1.0 - share))
     return out
+
+
+LONG = 30000  # a training part longer than this (samples) is screened on part of it
 
 
 def default_workers() -> int:
@@ -206,7 +212,7 @@ def _with_fit(spec: ModelSpec, fr: FitResult) -> ModelSpec:
 class Selector:
     def __init__(self, rec: Record, spec: ModelSpec, split: float = 0.7, test_record: Record | None = None,
                  floors: dict | None = None, candidates: list[str] | None = None, max_effects: int = 3,
-                 screen_samples: int = 20000, min_excess_drop: float = 0.10, z_min: float = 2.0,
+                 screen_samples: int = 8000, min_excess_drop: float = 0.10, z_min: float = 2.0,
                  min_rel_drop: float = 0.05, test_skip: int | None = None, log=None, workers: int | None = None,
                  max_dt: float = 5e-4, beam: int = 4, far: float = 3.0, placements: bool = True):
         self.rec = rec
@@ -277,6 +283,21 @@ class Selector:
                          "nrmse": std / float(self.prob.scale[i])}
             raised.append(c)
         return raised
+
+    def screen_end(self, a: int, b: int) -> int:
+        """End of the screening window on the training part [a, b) (module docstring): b when the part is
+        not long; else a + screen_samples, doubled until every channel's RMS in the window is at least half
+        its RMS over the part."""
+        if b - a <= max(LONG, 1.5 * self.screen):
+            return b
+        chans = [np.asarray(x, float)[a:b] for x in (*self.rec.inputs.values(), *self.rec.outputs.values())]
+        chans = [x - x.mean() for x in chans if np.std(x) > 0]
+        n = self.screen
+        while 1.5 * n < b - a:
+            if all(np.sqrt(np.mean(x[:n] ** 2)) >= 0.5 * np.sqrt(np.mean(x ** 2)) for x in chans):
+                return a + n
+            n *= 2
+        return b
 
     def _test_errors(self, fr: FitResult):
         tp = self.test_prob or self.prob
@@ -375,7 +396,7 @@ class Selector:
         a, b = self.train
         self.log(f"calibrating the nominal model ({', '.join(self.spec.names()) or 'nothing free'}) on "
                  f"{b - a} training samples")
-        bs = b if b - a <= 1.5 * self.screen else a + self.screen
+        bs = self.screen_end(a, b)
         nominal = fit(self.prob, self.spec, a, bs, max_nfev=100)
         if bs < b:
             nominal = fit(self.prob, _with_fit(self.spec, nominal), a, b, max_nfev=30)
