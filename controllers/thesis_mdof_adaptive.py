@@ -28,6 +28,14 @@ edge).  Also ours, for robustness on the rough dirt road (where the bare laws dr
 goes unstable at the control step): a σ-leakage on the integral parts and a bound on each adapted entry
 (``gain_limit`` × its nominal entry, or 10 % of the matrix's largest entry if larger).
 
+``keep_cancellation`` (ours, off by default): with the nominal gains row 0 of K_p and K_v is
+[M_s·ω_e² − K_s, M_s·ω_e²] and [M_s·2ζω_e − C_s, M_s·2ζω_e], so a motion δ of the primary alone (E = [δ, −δ])
+gives u_s = −K_s·δ − C_s·δ̇, the change of the secondary spring and damper force: the body does not feel the
+primary.  The printed laws adapt the two entries separately; on a rough road the primary rattles at 50–80 Hz,
+Θ·Ė rectifies it and K_v,00 − K_v,01 drifts by thousands of N·s/m, which passes the rattle to the body
+(docs/reproductions/vallurupalli_thesis_1996.md, Ch. 6).  With the flag both row-0 entries take the mean of
+their two steps, so the difference (the cancellation) stays at its nominal value.
+
 ẅ: the derivative of the measured base velocity (``road_vel``) over the control step (a base
 accelerometer in practice).  Sensors: ``travel`` (z_s, z_p), ``travel_rate``, ``road``, ``road_vel``.
 Signals: ``ref_z.0/1`` (reference rattle spaces), ``err.0/1``, ``ref_acc`` (reference secondary-mass
@@ -66,10 +74,12 @@ class MDOFParams(Params):
     sigma: float = Field(0.2, ge=0, description="leakage σ (1/s) on the integral parts (σ-modification, our addition)")
     gain_limit: float = Field(1.0, gt=0, description="each adapted gain entry stays within ± gain_limit × its nominal scale")
     adapt_model: bool = Field(True, description="adapt M0, C0, K0, D0 as well (False: only K_p, K_v, U_ax)")
+    keep_cancellation: bool = Field(False, description="ours, not the thesis's: row 0 of K_p and K_v adapts its two "
+                                    "entries by the same step, keeping the nominal cancellation of the primary's motion")
 
 
 # ---- the law: one control step for one car (suspension_sim.compiled) ---------------------------------------
-# p: sensor offsets (travel, travel_rate, road[-1], road_vel[-1]); h, α, β, σ, adapt_model; R2, R3, P⁻¹
+# p: sensor offsets (travel, travel_rate, road[-1], road_vel[-1]); h, α, β, σ, flags (adapt_model + 2·keep_cancellation); R2, R3, P⁻¹
 # (2 × 2 each), rows 2–3 of the reference A (2 × 4) and B (2); the reference filter's header; a table of the
 # 7 gains (_KEYS order: n columns, p offset of [v_scale, G0, g_scale, limit], st offsets of I, G and the
 # regressor); then those blocks.  st: the signals ref_z = Z_m (2), err = E (2), ref_acc, ref_x; ẇ_prev,
@@ -116,7 +126,9 @@ def _kernel(t, y, p, st, u):
     a = p[5]
     b = p[6]
     sig = p[7]
-    nkeys = 7 if p[8] != 0.0 else 3
+    flags = int(p[8])
+    nkeys = 7 if flags % 2 != 0 else 3
+    keep = flags >= 2
     for kk in range(nkeys):
         tb = _P_KEYS + 5 * kk
         nk = int(p[tb])
@@ -132,6 +144,8 @@ def _kernel(t, y, p, st, u):
             for j in range(nk):
                 e = i * nk + j
                 outer = st[_ST_TH + i] * st[_ST_V + j] * p[pb + 1 + 2 * nk + e] / nrm
+                if keep and kk < 2 and i == 0:  # K_p, K_v row 0: one step for both entries (keep_cancellation)
+                    outer = 0.5 * st[_ST_TH] * (st[_ST_V] * p[pb + 1 + 2 * nk] + st[_ST_V + 1] * p[pb + 2 + 2 * nk]) / nrm
                 lim = p[pb + 1 + 4 * nk + e]
                 ie = st[io + e] + (a * h * outer - sig * h * st[io + e])
                 ie = min(max(ie, -lim), lim)
@@ -216,7 +230,8 @@ class MDOFAdaptive(Controller):
         off = [self.ctx.sensor_slice("travel")[0], self.ctx.sensor_slice("travel_rate")[0],
                self.ctx.sensor_slice("road")[1] - 1, self.ctx.sensor_slice("road_vel")[1] - 1]
         lay.p([float(o) for o in off] + [self.ctx.control_dt, shared_value(p.alpha), shared_value(p.beta),
-                                         shared_value(p.sigma), float(bool(p.adapt_model))])
+                                         shared_value(p.sigma),
+                                         float(bool(p.adapt_model)) + 2.0 * float(bool(p.keep_cancellation))])
         assert lay.p(self.R2) == _P_R2 and lay.p(self.R3) == _P_R3 and lay.p(self.Pinv) == _P_PI
         assert lay.p(self.Ar[2:]) == _P_AR and lay.p(self.Br[2:, 0]) == _P_BR
         assert lay.p(np.zeros(ZOH_HEADER + 5 * len(_KEYS))) == _P_REF
