@@ -33,16 +33,16 @@ def damping_drift(duration: float) -> dict:
 
 def drift_kind(v) -> str | None:
     """'stiffness' or 'damping' when a ``vehicle.variations`` entry has the form of the mode I drift of that
-    kind (a ``scale`` ``ramp`` of a spring, a ``scale`` ``step`` of a damper), else None (e.g. Ch. 5's own
-    stiffness step)."""
+    kind (a ``scale`` ``ramp`` of a spring, a ``scale`` ``step`` of a damper after t = 0), else None (e.g. Ch. 5's
+    own stiffness step)."""
     get = (lambda k: getattr(v, k)) if hasattr(v, "param") else v.get
     name = get("param")
     if "tire" in name or get("mode") != "scale":
         return None
     if "stiffness" in name and get("kind") == "ramp":
         return "stiffness"
-    if "damping" in name and get("kind") == "step":
-        return "damping"
+    if "damping" in name and get("kind") == "step" and min(get("times"), default=0.0) > 0.0:
+        return "damping"  # (a step at t = 0 is a plant that differs from the design, not a drift)
     return None
 
 
