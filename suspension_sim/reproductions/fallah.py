@@ -235,10 +235,26 @@ def bang_bang(ctx) -> ItemOutput:
     fig.suptitle("Fallah in the bang-bang regime: 5 m bump, sigmoid slope a = 1000 s/m (≈ sgn), ideal vs noisy sensors",
                  fontsize=9)
     fig.tight_layout()
+    # side runs for the notes: the near-sgn law at a 0.5 ms control period; a steeper smooth sigmoid and bigger
+    # bumps, which still do not reach f_max
+    extra = {}
+    for k, sc in ctx.variants("fallah_bump", ["controller.params.a=1000"], only=["fallah", "fallah_noisy"]).items():
+        sc.sim.control_dt = 0.0005
+        extra[f"ctrl05|{k}"] = sc
+    extra["a40|fallah"] = ctx.variants("fallah_bump", ["controller.params.a=40"], only=["fallah"])["fallah"]
+    for h in (0.2, 0.3):
+        extra[f"h{h}|fallah"] = ctx.variants("fallah_bump", [f"road.params.height={h}"], only=["fallah"])["fallah"]
+    ex = ctx.run(extra, label="fallah bang-bang side runs")
+    pa5 = rms(res["5 m bump, a = 4|passive"].ts.body_acc)
+    r05 = {k: rms(ex[f"ctrl05|{k}"].ts.body_acc) / pa5 for k in ("fallah", "fallah_noisy")}
+    r1 = {k: rms(g["5 m bump, a = 1000"][k].ts.body_acc) / pa5 for k in ("fallah", "fallah_noisy")}
     notes = ["Step halving here halves the physics step and holds the 1 ms control step: near sgn, the sampled law "
              "chatters with an amplitude set by the control period, so halving that changes the law as run, not the "
-             "accuracy of the simulation (5 m bump, a = 1000, ideal sensors: 2.04× passive at 1 ms, 0.87× at "
-             "0.5 ms; noisy: 6.1× and 6.5×)."]
+             f"accuracy of the simulation (5 m bump, a = 1000, ideal sensors: {r1['fallah']:.2f}× passive at 1 ms, "
+             f"{r05['fallah']:.2f}× at 0.5 ms; noisy: {r1['fallah_noisy']:.2f}× and {r05['fallah_noisy']:.2f}×).",
+             f"Smooth range: a = 40 s/m peaks at {force_stats(ex['a40|fallah'])['peak']:.0f} N; 20 and 30 cm × 5 m "
+             f"bumps (a = 4) at {force_stats(ex['h0.2|fallah'])['peak']:.0f} and "
+             f"{force_stats(ex['h0.3|fallah'])['peak']:.0f} N (f_max {F_MAX:.0f} N)."]
     return ItemOutput(claims, key=key, figure=fig, tables=[table], notes=notes)
 
 
