@@ -35,7 +35,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-TEMPLATE_VERSION = 16
+TEMPLATE_VERSION = 17
 
 # PlantState fields a compiled sensor may read (Sensor.kernel_field), by code
 FIELDS = ("body_pos", "body_vel", "body_acc", "corner_body_pos", "corner_body_vel", "corner_body_acc",
@@ -154,7 +154,7 @@ def generate_source(effects, actuator, controller, sensors=()) -> str:
     (module, advance)) and ``controller`` ((module, name) or None for the hybrid loop)."""
     imp = ["import numpy as np", "from numba import njit",
            "from suspension_sim.compiled.mj import mj_step1, mj_step2, mj_step, mj_forwardSkip",
-           "from suspension_sim.sensors.base import measure"]
+           "from suspension_sim.sensors.base import measure", "from suspension_sim.compiled.views import row"]
     for k, (mod, name, _) in enumerate(effects):
         imp.append(f"from {mod} import {name} as eff{k}")
     (am, af), (am2, aa) = actuator
@@ -169,7 +169,7 @@ def generate_source(effects, actuator, controller, sensors=()) -> str:
         call = (f"{ind}jj = e{k}_map[c]\n"
                 f"{ind}if jj >= 0:\n"
                 f"{ind}    {'f' if target != 'tire' else 'ft'} += eff{k}("
-                f"{'s, v' if target != 'tire' else 'tl, tv'}, t, dt, e{k}_p[i, jj], e{k}_st[i, jj])\n")
+                f"{'s, v' if target != 'tire' else 'tl, tv'}, t, dt, row(row(e{k}_p, i), jj), row(row(e{k}_st, i), jj))\n")
         (tire_calls if target == "tire" else susp_calls).append(call)
         sig_logs.append(
             f"                for q in range(e{k}_sigj.shape[0]):\n"
@@ -177,7 +177,7 @@ def generate_source(effects, actuator, controller, sensors=()) -> str:
             f"                        L[i, jl, e{k}_lc[q, jj]] = e{k}_st[i, jj, e{k}_sigj[q]]\n")
     sensor_block = "".join(_sensor_code(sc, f, simple) for sc, (f, simple) in enumerate(sensors)) or \
         "                    pass\n"
-    ctrl_block = ("                    ctrl_kernel(t, y[i], c_p[i], c_st[i], cmd[i])\n" if controller is not None
+    ctrl_block = ("                    ctrl_kernel(t, row(y, i), row(c_p, i), row(c_st, i), row(cmd, i))\n" if controller is not None
                   else "                    pass\n")
     body = f'''
 PRE = {PRE}
@@ -338,7 +338,7 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                 v = ten_vel[susp_t[i, c]]
                 sv[i, c, 0] = s
                 sv[i, c, 1] = v
-                Fa = act_force(cmd[i, c], s, v, t, dt, a_p[i, c], a_st[i, c])
+                Fa = act_force(cmd[i, c], s, v, t, dt, row(row(a_p, i), c), row(row(a_st, i), c))
                 F_act[i, c] = Fa
                 if has_effects:
                     f = 0.0
@@ -431,7 +431,7 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                         L[i, jl, LC[14, c]] = acc[wheel_v[i, c]]
         for i in range(n):
             for c in range(nc):
-                act_advance(cmd[i, c], sv[i, c, 0], sv[i, c, 1], t, dt, a_p[i, c], a_st[i, c])
+                act_advance(cmd[i, c], sv[i, c, 0], sv[i, c, 1], t, dt, row(row(a_p, i), c), row(row(a_st, i), c))
         k += 1
     return k1
 '''
