@@ -61,7 +61,7 @@ def test_quanser_claims_only_what_beats_the_repeatability_floor(real_data, tmp_p
     r = diagnose_real.quanser(tmp_path, real_data, log=lambda m: None)
     floor = r["floor_mm"]["body_pos"]
     kept = [c for c in r["candidates"] if c["kept"]]
-    assert len(kept) == len(r["named"])
+    assert set(r["named"]) <= {c["name"] for c in kept}  # (a stand-in may pass the gate beside the one added)
     for c in kept:  # every claimed effect removes error above the floor on the repeat run
         assert c["excess_after"] < c["excess_before"] and c["test_after"] < c["test_before"]
     # SOURCE.md's rough check: linear 0.67 mm, + Coulomb friction 0.56 mm on the repeat run (floor 0.33 mm)
