@@ -14,7 +14,7 @@ name               default     what it bounds
 ``steps``          2e9         physics steps of one run (duration / dt)
 ``log_samples``    2e9         logged instants of one run (duration / log_dt)
 ``log_gb``         8           memory of one run's (or one batch task's) log buffer in GB: the whole log when it
-                               fits in 64 MB, else one chunk (a long log streams to disk, see ``stream.py``)
+                               fits in 64 MB per car and 512 MB in all, else one chunk (a long log streams to disk, see ``stream.py``)
 ``data_mb``        2000        size of one measured-data file for ``diagnose`` in MB
 =================  ==========  ==========================================================================
 """
