@@ -3,7 +3,7 @@ from ..registry import METRICS
 from ._util import peak
 import numpy as np
 
-from .base import EnsembleView, Reductions, RunView, ensemble_version, peak_rows, rms, rms_rows, stream_version
+from .base import CornerRmsPeakStream, EnsembleView, RunView, ensemble_version, peak_rows, rms, rms_rows, stream_version
 
 
 @METRICS.register("actuator_force")
@@ -28,20 +28,5 @@ def _actuator_force_many(ens: EnsembleView) -> dict:
 
 
 @stream_version(actuator_force)
-class _ActuatorForceStream:
-    def __init__(self, meta: EnsembleView):
-        self.meta, self.r = meta, Reductions()
-
-    def update(self, ens: EnsembleView) -> None:
-        self.r.start(ens)
-        for s in ens.suffixes:
-            f = ens.col(f"actuator_force{s}")
-            self.r.sum(f"ss{s}", f * f)
-            self.r.max(f"pk{s}", np.abs(f))
-
-    def result(self) -> dict:
-        n, out = self.meta.n_cars, {}
-        for s in self.meta.suffixes:
-            out[f"actuator_force_rms{s}"] = self.r.rms(f"ss{s}", n)
-            out[f"actuator_force_peak{s}"] = self.r.get(f"pk{s}", n)
-        return out
+class _ActuatorForceStream(CornerRmsPeakStream):
+    channel = key = "actuator_force"

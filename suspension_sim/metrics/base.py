@@ -243,3 +243,35 @@ class Reductions:
     @property
     def duration(self) -> float:
         return self.n * self.dt
+
+
+class CornerRmsPeakStream:
+    """Streaming version of a per-corner RMS-and-peak metric: ``{key}_rms{s}`` and ``{key}_peak{s}`` (max |x|)
+    of channel ``{channel}{s}`` for every corner suffix ``s``.  A subclass sets :attr:`channel` and :attr:`key`,
+    and may add per-corner keys after them with :meth:`more` (keys in the ensemble version's order)."""
+
+    channel = ""
+    key = ""
+
+    def __init__(self, meta: EnsembleView):
+        self.meta, self.r = meta, Reductions()
+
+    def update(self, ens: EnsembleView) -> None:
+        self.r.start(ens)
+        for s in ens.suffixes:
+            x = ens.col(f"{self.channel}{s}")
+            self.r.sum(f"ss{s}", x * x)
+            self.r.max(f"pk{s}", np.abs(x))
+
+    def more(self, s: str, rms: np.ndarray) -> dict:
+        """Further keys of corner ``s`` from its streamed RMS (none by default)."""
+        return {}
+
+    def result(self) -> dict:
+        n, out = self.meta.n_cars, {}
+        for s in self.meta.suffixes:
+            r = self.r.rms(f"ss{s}", n)
+            out[f"{self.key}_rms{s}"] = r
+            out[f"{self.key}_peak{s}"] = self.r.get(f"pk{s}", n)
+            out.update(self.more(s, r))
+        return out

@@ -3,7 +3,7 @@ import numpy as np
 
 from ..registry import METRICS
 from ._util import peak
-from .base import EnsembleView, Reductions, RunView, ensemble_version, peak_rows, rms, rms_rows, stream_version
+from .base import CornerRmsPeakStream, EnsembleView, RunView, ensemble_version, peak_rows, rms, rms_rows, stream_version
 
 
 @METRICS.register("tire_load")
@@ -40,24 +40,10 @@ def _tire_load_many(ens: EnsembleView) -> dict:
 
 
 @stream_version(tire_load)
-class _TireLoadStream:
-    def __init__(self, meta: EnsembleView):
-        self.meta, self.r = meta, Reductions()
+class _TireLoadStream(CornerRmsPeakStream):
+    channel = key = "tire_force"
 
-    def update(self, ens: EnsembleView) -> None:
-        self.r.start(ens)
-        for s in ens.suffixes:
-            f = ens.col(f"tire_force{s}")
-            self.r.sum(f"ss{s}", f * f)
-            self.r.max(f"pk{s}", np.abs(f))
-
-    def result(self) -> dict:
-        n, out = self.meta.n_cars, {}
-        for s in self.meta.suffixes:
-            static = np.asarray(self.meta.static_tire_force[s], dtype=float)
-            r = self.r.rms(f"ss{s}", n)
-            out[f"tire_force_rms{s}"] = r
-            out[f"tire_force_peak{s}"] = self.r.get(f"pk{s}", n)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                out[f"tire_load_rms_rel{s}"] = np.where(static > 0, r / np.where(static > 0, static, 1.0), np.nan)
-        return out
+    def more(self, s: str, rms: np.ndarray) -> dict:
+        static = np.asarray(self.meta.static_tire_force[s], dtype=float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return {f"tire_load_rms_rel{s}": np.where(static > 0, rms / np.where(static > 0, static, 1.0), np.nan)}

@@ -3,7 +3,7 @@ from ..registry import METRICS
 from ._util import peak
 import numpy as np
 
-from .base import EnsembleView, Reductions, RunView, ensemble_version, peak_rows, rms, rms_rows, stream_version
+from .base import CornerRmsPeakStream, EnsembleView, RunView, ensemble_version, peak_rows, rms, rms_rows, stream_version
 
 
 @METRICS.register("wheel_acc")
@@ -28,20 +28,5 @@ def _wheel_acc_many(ens: EnsembleView) -> dict:
 
 
 @stream_version(wheel_acc)
-class _WheelAccStream:
-    def __init__(self, meta: EnsembleView):
-        self.meta, self.r = meta, Reductions()
-
-    def update(self, ens: EnsembleView) -> None:
-        self.r.start(ens)
-        for s in ens.suffixes:
-            a = ens.col(f"wheel_acc{s}")
-            self.r.sum(f"ss{s}", a * a)
-            self.r.max(f"pk{s}", np.abs(a))
-
-    def result(self) -> dict:
-        n, out = self.meta.n_cars, {}
-        for s in self.meta.suffixes:
-            out[f"wheel_acc_rms{s}"] = self.r.rms(f"ss{s}", n)
-            out[f"wheel_acc_peak{s}"] = self.r.get(f"pk{s}", n)
-        return out
+class _WheelAccStream(CornerRmsPeakStream):
+    channel = key = "wheel_acc"
