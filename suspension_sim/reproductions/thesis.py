@@ -382,6 +382,15 @@ def ch4_load_step(ctx) -> ItemOutput:
 
 # ---- Ch. 7 ------------------------------------------------------------------------------------------------
 
+def polarity_claim(quantity, thesis, a, when_a, b, when_b) -> Claim:
+    """The half car's actuator polarities: in squat (log window ``a``) the leading (front) actuator compresses
+    (mean force < 0) and the trailing one extends; in braking (window ``b``) the reverse."""
+    fa, ra = a.actuator_force_front.mean(), a.actuator_force_rear.mean()
+    fb, rb = b.actuator_force_front.mean(), b.actuator_force_rear.mean()
+    return Claim(quantity, thesis, f"{when_a} front {fa:.0f} N, rear {ra:.0f} N; {when_b} front {fb:.0f} N, rear {rb:.0f} N",
+                 "reproduced" if (fa < 0 < ra and rb < 0 < fb) else "not")
+
+
 def ch7_braking(ctx) -> ItemOutput:
     import matplotlib.pyplot as plt
 
@@ -410,11 +419,8 @@ def ch7_braking(ctx) -> ItemOutput:
         Claim("pitch settled during acceleration (4–9 s)", "adapts within 4 s",
               f"max |pitch| {late['mimo_mrac']:.3f}° (asymmetric {late['asym_mimo_mrac']:.3f}°)",
               "reproduced" if late["mimo_mrac"] < 0.2 else "not"),
-        Claim("actuator polarities", "squat: leading compresses, trailing extends; reversed in braking",
-              f"accelerating front {a.actuator_force_front.mean():.0f} N, rear {a.actuator_force_rear.mean():.0f} N; "
-              f"braking front {b.actuator_force_front.mean():.0f} N, rear {b.actuator_force_rear.mean():.0f} N",
-              "reproduced" if (a.actuator_force_front.mean() < 0 < a.actuator_force_rear.mean()
-                               and b.actuator_force_rear.mean() < 0 < b.actuator_force_front.mean()) else "not"),
+        polarity_claim("actuator polarities", "squat: leading compresses, trailing extends; reversed in braking",
+                       a, "accelerating", b, "braking"),
     ]
     fig, ax = plt.subplots(3, 1, figsize=(7.5, 7.0), sharex=True)
     for k, s in (("passive", "g-"), ("mimo_mrac", "r-"), ("asym_passive", "g--"), ("asym_mimo_mrac", "r--")):
@@ -505,11 +511,8 @@ def ch7_road(ctx) -> ItemOutput:
         Claim("nose dive at 40 s removed (peak θ − θ_ref, 40–43 s)", "≈ 6° eliminated (Fig. 7.5)",
               f"passive {dive['passive']:.2f}°, MRAC {dive['mimo_mrac']:.2f}°, adaptation off {dive['mimo_fixed']:.2f}°",
               "reproduced" if dive["mimo_mrac"] < 0.2 * dive["passive"] else "not"),
-        Claim("polarities (Fig. 7.6)", "20–30 s leading compresses, trailing extends; reversed at 40 s",
-              f"22–28 s front {a.actuator_force_front.mean():.0f} N, rear {a.actuator_force_rear.mean():.0f} N; "
-              f"40.3–42 s front {b.actuator_force_front.mean():.0f} N, rear {b.actuator_force_rear.mean():.0f} N",
-              "reproduced" if (a.actuator_force_front.mean() < 0 < a.actuator_force_rear.mean()
-                               and b.actuator_force_rear.mean() < 0 < b.actuator_force_front.mean()) else "not"),
+        polarity_claim("polarities (Fig. 7.6)", "20–30 s leading compresses, trailing extends; reversed at 40 s",
+                       a, "22–28 s", b, "40.3–42 s"),
     ]
     fig, ax = plt.subplots(3, 1, figsize=(7.5, 7.5), sharex=True)
     for k, s_ in (("passive", "g-"), ("mimo_fixed", "b-"), ("mimo_mrac", "r-")):
