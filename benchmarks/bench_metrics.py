@@ -20,7 +20,6 @@ import math
 import os
 import pickle
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -28,9 +27,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
+from bench_results import best as _best  # noqa: E402  (CPU time, best of n)
+
 
 def _simulate():
-    from bench_results import full, quarter, run_and_grab
+    from bench_results import full, quarter, run_and_grab  # the cases of the results benchmark
 
     from suspension_sim.results import infos_of
 
@@ -41,15 +42,6 @@ def _simulate():
         buf = np.stack([np.asarray(logger.ch[k]) for k in names], axis=2)  # (n_cars, n_log, n_channels)
         out[label] = dict(t=np.array(logger.t), names=names, buf=buf, sfx=list(logger.sfx), infos=infos_of(sim, wall))
     return out
-
-
-def _best(fn, repeats):
-    best = math.inf
-    for _ in range(repeats):
-        c0 = time.process_time()
-        fn()
-        best = min(best, time.process_time() - c0)
-    return best
 
 
 def main():

@@ -6,8 +6,9 @@ seconds per chunk) is never held whole.  Each full chunk is
 - appended to each car's ``timeseries.parquet`` as a Parquet row group (``pyarrow.parquet.ParquetWriter``,
   the schema ``DataFrame.to_parquet`` writes for the same columns: the file reads back as the one-shot file
   does, same columns, same dtypes);
-- fed to the metrics' streaming versions (:func:`~suspension_sim.metrics.base.stream_version`: sums, maxima,
-  counts, the ISO 2631 filter state carried over; equal to the one-shot metrics to rounding);
+- fed to the metrics' accumulators (:class:`~suspension_sim.metrics.base.Accumulator`, the one law of each
+  built-in metric: sums, maxima, counts, the ISO 2631 filter state carried over; equal to the whole log as
+  one chunk to rounding);
 - thinned into a bounded *preview* (every q-th log instant, at most :data:`PREVIEW_MB`), from which the
   plots are drawn and the metrics without a streaming version are computed (``info["streamed_log"]`` names
   them and q).

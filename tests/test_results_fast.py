@@ -1,7 +1,10 @@
 """The ensemble-vectorised results path (``Result.many_from_logger``, ``Result.from_logger``, lazy time series,
 ensemble versions of the metrics) against the straightforward per-car path it replaced (a verbatim copy in
 ``tests/legacy_results.py``: one DataFrame per car, metrics from DataFrame columns): every metric, the info
-dict and the DataFrame must be exactly equal (bit for bit, NaN where NaN)."""
+dict and the DataFrame must be exactly equal (bit for bit, NaN where NaN), but for the vibration dose value:
+the metrics now take a_w⁴ as (a_w²)² (60 times faster than pow(a_w, 4)) and its fourth root as two square
+roots, an ulp or two from the reference (1e-12 relative allowed on that key against the reference; the
+per-car and ensemble values of the package stay the same numbers)."""
 from __future__ import annotations
 
 import dataclasses
@@ -24,9 +27,14 @@ def _same(a: float, b: float) -> bool:
     return (math.isnan(a) and math.isnan(b)) or (a == b and math.copysign(1, a) == math.copysign(1, b))
 
 
-def assert_same_metrics(new: dict, ref: dict):
+#: keys whose arithmetic differs from the reference's by rounding (see the module doc)
+NEAR = ("body_acc_vdv",)
+
+
+def assert_same_metrics(new: dict, ref: dict, near: tuple = ()):
     assert list(new) == list(ref)  # same keys in the same order
-    bad = {k: (new[k], ref[k]) for k in ref if not _same(new[k], ref[k])}
+    bad = {k: (new[k], ref[k]) for k in ref if not _same(new[k], ref[k])
+           and not (k in near and abs(new[k] - ref[k]) <= 1e-12 * abs(ref[k]))}
     assert not bad
 
 
@@ -126,7 +134,7 @@ def test_results_equal_the_per_car_reference(ensemble):
     for i, r in enumerate(res):
         ts, info, metrics = L.from_logger(logger, i, sim, wall)
         assert r.__dict__["_ts"] is None  # nothing built yet
-        assert_same_metrics(r.metrics, metrics)
+        assert_same_metrics(r.metrics, metrics, NEAR)
         assert r.info == info and list(r.info) == list(info)
         assert list(r.ts.columns) == list(ts.columns)
         assert (r.ts.dtypes == ts.dtypes).all()
@@ -239,8 +247,8 @@ def test_ensemble_versions_equal_per_car_metrics(n_log, fs, sfx):
     for i in range(n):
         ts = L.frame(type("Lg", (), {"t": t, "ch": ch}), i)
         ref = L.metrics_of(ts, infos[i])
-        assert_same_metrics(got[i], ref)
-        assert_same_metrics(compute_metrics(Result(None, ts, infos[i])), ref)
+        assert_same_metrics(got[i], ref, NEAR)
+        assert_same_metrics(compute_metrics(Result(None, ts, infos[i])), got[i])  # one car = the ensemble
     # every built-in metric has an ensemble version and it was used (no per-car view needed)
     ens = EnsembleView(channels=ch, t=t, suffixes=list(sfx), static_tire_force={}, stop_gaps=gaps, infos=infos)
     assert ens.n_cars == n

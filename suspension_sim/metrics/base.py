@@ -1,31 +1,30 @@
 """Metric interface.
 
-A metric is a function registered by name that takes a :class:`RunView` (one car's log) and returns a flat
-``dict[str, float]`` (keys are metric names with units implied by SI; per-corner values carry the corner
-suffix, e.g. ``travel_rms_front``)::
+A metric is registered by name and maps one car's log (:class:`RunView`) to a flat ``dict[str, float]`` (keys
+are metric names with units implied by SI; per-corner values carry the corner suffix, e.g.
+``travel_rms_front``).  The simplest is a plain function::
 
-    @METRICS.register("body_acc")
-    def body_acc(run: RunView) -> dict[str, float]:
-        a = run.col("body_acc")          # or run.ts["body_acc"].to_numpy()
-        return {"body_acc_rms": rms(a), "body_acc_peak": float(np.max(np.abs(a)))}
+    @METRICS.register("travel_range")
+    def travel_range(run: RunView) -> dict[str, float]:
+        return {f"travel_range{s}": float(np.ptp(run.col(f"travel{s}"))) for s in run.suffixes}
 
 ``run.col(name)`` returns a channel as a 1-D float array (``KeyError`` when the log has no such channel: the
 metric is then skipped for that model); ``run.ts`` is the whole log as a pandas DataFrame, built on demand
-when the view was made from arrays (it costs more than the metric itself for short runs).
+when the view was made from arrays.  Such a metric is computed car by car, and on a long (streamed) run from a
+bounded decimated copy of its log.
 
-Optionally a metric also gets an *ensemble* version that computes it for every car of an ensemble at once
-from ``(n_cars, n_log)`` arrays (:class:`EnsembleView`) and returns ``key -> (n_cars,) array``, with the same
-keys in the same order as the per-car function and **bit-identical** values (the same floating-point
-operations on every car's samples: numpy reductions along the contiguous last axis sum in the same pairwise
-order as on one car's 1-D array; ``tests/test_results_fast.py`` checks it against the per-car function)::
+The built-in metrics are written once, as an :class:`Accumulator`: reductions over chunks of an ensemble's
+log, ``(n_cars, rows)`` arrays (:class:`EnsembleView`).  :func:`metric` makes the registered function from it
+and attaches the other two forms, so that the one law serves
 
-    @ensemble_version(body_acc, channels=("body_acc",))
-    def _body_acc_many(ens: EnsembleView) -> dict[str, np.ndarray]:
-        a = ens.col("body_acc")
-        return {"body_acc_rms": rms_rows(a), "body_acc_peak": np.max(np.abs(a), axis=1)}
+- one car: the whole log as one chunk of one car (``f(run)``);
+- an ensemble after a batch: the whole log as one chunk, every car at once (``f.ensemble(ens)``, vectorised
+  over the cars; numpy reductions along the contiguous last axis sum each car's row in the same order as
+  one car's, so the two give the same numbers);
+- a long run: chunk by chunk as it is logged (``f.stream``, :mod:`suspension_sim.stream`), equal to the
+  one-chunk values to rounding.
 
-Metrics without one are computed car by car (:func:`suspension_sim.results.compute_metrics`); an ensemble
-version may raise ``NotImplementedError`` to fall back to that for a particular ensemble.
+The same keys come in the same order in all three.  See :func:`metric` for an example.
 """
 from __future__ import annotations
 
@@ -125,86 +124,67 @@ class EnsembleView:
         return float(t[1] - t[0]) if len(t) > 1 else 0.0
 
 
-def ensemble_version(metric, channels: tuple = ()):
-    """Decorator: attach ``fn(ens: EnsembleView) -> {key: (n_cars,) array}`` to the per-car ``metric`` as its
-    ensemble version (same keys, same order, bit-identical values).  ``channels``: the log channels it reads
-    (``{s}`` stands for every corner suffix), so that channels logged as strided views (e.g. ``L[:, :, j]``
-    of one ``(n_cars, n_log, n_channels)`` buffer) are made contiguous together in one cache-friendly pass
-    beforehand; channels read without being declared are copied one by one when strided (slower)."""
-
-    def deco(fn):
-        metric.ensemble = fn
-        metric.ensemble_channels = tuple(channels)
-        return fn
-
-    return deco
-
-
 def rms(x) -> float:
+    """RMS of a 1-D array (NaN when empty): for metrics written as plain per-car functions."""
     x = np.asarray(x, dtype=float)
     return float(np.sqrt(np.mean(x * x))) if x.size else float("nan")
 
 
-def rms_rows(x: np.ndarray) -> np.ndarray:
-    """:func:`rms` of every row of a 2-D array (bit-identical to ``rms`` of each row)."""
-    if x.shape[1] == 0:
-        return np.full(x.shape[0], np.nan)
-    return np.sqrt(np.mean(x * x, axis=1))
-
-
-def peak_rows(x: np.ndarray) -> np.ndarray:
-    """max |x| of every row."""
-    if x.shape[1] == 0:
-        return np.full(x.shape[0], np.nan)
-    return np.max(np.abs(x), axis=1)
-
-
-def fraction_rows(mask: np.ndarray) -> np.ndarray:
-    """Share of True per row (bit-identical to ``_util.fraction`` of each row)."""
-    if mask.shape[1] == 0:
-        return np.full(mask.shape[0], np.nan)
-    return np.mean(mask, axis=1)
-
-
 # ----------------------------------------------------------------------------------------------------------
-# streaming versions (long runs: the log arrives in chunks and is never held whole)
+# the law of a built-in metric: an accumulator over the chunks of an ensemble's log
 # ----------------------------------------------------------------------------------------------------------
-def stream_version(metric):
-    """Decorator: attach a streaming version to the per-car ``metric``: a class made with the run's
-    :class:`EnsembleView` *without* samples (``meta``: suffixes, static loads, stop gaps, infos; ``t`` empty),
-    whose ``update(chunk)`` gets each chunk of the log as an :class:`EnsembleView` (``chunk.t`` the chunk's
-    times, ``chunk.dt`` the log step) and whose ``result()`` returns ``key -> (n_cars,) array`` with the
-    same keys as the ensemble version.  Reductions over chunks (sums, maxima, counts, filter states carried
-    over) equal the one-shot metric to rounding (~1e-15 relative); on a log that is one chunk they are the
-    same sums.  A metric without one is computed from a bounded decimated copy of the log on runs longer
-    than one chunk (and the run's ``info`` says so)."""
+class Accumulator:
+    """A metric written once, as reductions over chunks of an ensemble's log.
 
-    def deco(cls):
-        metric.stream = cls
-        return cls
+    Made with the run's :class:`EnsembleView` (``meta``: suffixes, static loads, stop gaps, infos; its samples
+    are not read), :meth:`update` gets each chunk of the log in time order as an :class:`EnsembleView`
+    (``(n_cars, rows)`` channels, ``chunk.t`` the chunk's times, ``chunk.dt`` the log step) and
+    :meth:`result` returns ``key -> (n_cars,) array``.  :func:`metric` derives from it the per-car function
+    (the whole log as one chunk of one car) and the ensemble version (the whole log as one chunk); a long
+    run feeds it chunk by chunk (:mod:`suspension_sim.stream`).  A reduction over one chunk is the one-pass
+    reduction (the same numpy operations on the same rows: bit-identical for one car and for many); over
+    several it equals it to rounding (~1e-15 relative).
 
-    return deco
+    ``channels``: the log channels it reads (``{s}`` stands for every corner suffix), so that a batch logs
+    only those and gathers them together before the metrics.  Raise ``KeyError`` (``chunk.col`` does) when
+    the log lacks a channel: the metric is then skipped; ``NotImplementedError`` from ``__init__`` to have
+    the metric computed car by car for this ensemble."""
+
+    channels: tuple = ()
+
+    def __init__(self, meta: EnsembleView):
+        self.meta, self.n = meta, meta.n_cars
+        self.r = Reductions(self.n)
+
+    def update(self, chunk: EnsembleView) -> None:
+        raise NotImplementedError
+
+    def result(self) -> dict:
+        raise NotImplementedError
 
 
 class Reductions:
-    """Per-car running reductions of a streamed log: ``sum``/``max``/``count`` of ``(n_cars, rows)`` chunks
-    under a key, ``n`` samples so far, ``dt`` the log step and ``t_prev``/``last`` for trapezoid sums."""
+    """Per-car running reductions of a chunked log, by key: ``sum``/``max``/``count`` of ``(n_cars, rows)``
+    chunks, trapezoid sums, ``n`` samples so far and ``dt`` the log step (call :meth:`start` per chunk)."""
 
-    def __init__(self):
+    def __init__(self, n_cars: int):
+        self.n_cars = n_cars
         self.v: dict = {}
         self.n = 0
         self.dt = 0.0
         self.last: dict = {}
 
-    def start(self, chunk: "EnsembleView") -> None:
+    def start(self, chunk: EnsembleView) -> None:
         """Call once per chunk before the reductions: counts its samples, records the log step."""
         if self.n == 0 and len(chunk.t) > 1:
             self.dt = float(chunk.t[1] - chunk.t[0])
         self.n += len(chunk.t)
 
-    def sum(self, key, x: np.ndarray) -> None:
-        s = np.sum(x, axis=1)
+    def sum_value(self, key, s: np.ndarray) -> None:
         self.v[key] = s if key not in self.v else self.v[key] + s
+
+    def sum(self, key, x: np.ndarray) -> None:
+        self.sum_value(key, np.sum(x, axis=1))
 
     def max(self, key, x: np.ndarray) -> None:
         if x.shape[1] == 0:
@@ -213,8 +193,12 @@ class Reductions:
         self.v[key] = m if key not in self.v else np.maximum(self.v[key], m)
 
     def count(self, key, mask: np.ndarray) -> None:
-        c = np.count_nonzero(mask, axis=1).astype(float)
-        self.v[key] = c if key not in self.v else self.v[key] + c
+        self.sum_value(key, np.count_nonzero(mask, axis=1).astype(float))
+
+    def rms_peak(self, key, x: np.ndarray) -> None:
+        """Sum of squares and max |x| of ``x`` under ``key`` (read with :meth:`rms` and :meth:`peak`)."""
+        self.sum(f"{key}.ss", x * x)
+        self.max(f"{key}.pk", np.abs(x))
 
     def trapezoid(self, key, y: np.ndarray, t: np.ndarray) -> None:
         """∫ y dt over the chunks (scipy's trapezoid rule, the previous chunk's last sample joined on)."""
@@ -228,50 +212,112 @@ class Reductions:
             self.sum_value(key, integrate.trapezoid(y, t, axis=-1))
         self.last[key] = (y[:, -1:], t[-1:])
 
-    def sum_value(self, key, s: np.ndarray) -> None:
-        self.v[key] = s if key not in self.v else self.v[key] + s
+    def get(self, key, default: float = np.nan) -> np.ndarray:
+        return self.v.get(key, np.full(self.n_cars, default))
 
-    def get(self, key, n_cars: int) -> np.ndarray:
-        return self.v.get(key, np.full(n_cars, np.nan))
+    def mean(self, key) -> np.ndarray:
+        """Sum under ``key`` over the samples so far (NaN when there were none)."""
+        return self.get(key) / self.n if self.n else np.full(self.n_cars, np.nan)
 
-    def mean(self, key, n_cars: int) -> np.ndarray:
-        return self.get(key, n_cars) / self.n if self.n else np.full(n_cars, np.nan)
+    def rms(self, key) -> np.ndarray:
+        return np.sqrt(self.mean(f"{key}.ss"))
 
-    def rms(self, key, n_cars: int) -> np.ndarray:
-        return np.sqrt(self.mean(key, n_cars))
+    def peak(self, key) -> np.ndarray:
+        return self.get(f"{key}.pk")
 
     @property
     def duration(self) -> float:
+        """Length of the record so far, s (each sample standing for one log step)."""
         return self.n * self.dt
 
 
-class CornerRmsPeakStream:
-    """Streaming version of a per-corner RMS-and-peak metric: ``{key}_rms{s}`` and ``{key}_peak{s}`` (max |x|)
-    of channel ``{channel}{s}`` for every corner suffix ``s``.  A subclass sets :attr:`channel` and :attr:`key`,
-    and may add per-corner keys after them with :meth:`more` (keys in the ensemble version's order)."""
+class _OneCar(EnsembleView):
+    """One car's :class:`RunView` seen as an ensemble of one car (its channels read on demand)."""
+
+    def __init__(self, run: RunView):
+        super().__init__(channels={}, t=np.asarray(run.col("t"), dtype=float), suffixes=list(run.suffixes),
+                         static_tire_force={s: np.array([float(v)]) for s, v in run.static_tire_force.items()},
+                         stop_gaps=[run.stop_gap], infos=[run.info])
+        self.run = run
+
+    def col(self, name: str) -> np.ndarray:
+        if name == "t":
+            return self.t[None, :]
+        a = self.channels.get(name)
+        if a is None:
+            a = self.channels[name] = np.ascontiguousarray(self.run.col(name), dtype=float)[None, :]
+        return a
+
+    def has(self, name: str) -> bool:
+        return name in self.channels or self.run.has(name)
+
+
+def one_chunk(acc: type, ens: EnsembleView) -> dict:
+    """``acc``'s result on a whole log given as one chunk: ``key -> (n_cars,) array``."""
+    a = acc(ens)
+    a.update(ens)
+    return a.result()
+
+
+def metric(acc: type):
+    """Decorator: the registrable metric of an :class:`Accumulator` subclass, a function
+    ``f(run: RunView) -> dict[str, float]`` (the accumulator on the whole log of one car), with
+    ``f.ensemble(ens)`` (on the whole log of an ensemble), ``f.stream`` (the accumulator, for long runs) and
+    ``f.ensemble_channels`` attached::
+
+        @METRICS.register("body_acc")
+        @metric
+        class BodyAcc(Accumulator):
+            \"\"\"RMS and peak heave acceleration of the body at the c.g. (m/s²).\"\"\"
+
+            channels = ("body_acc",)
+
+            def update(self, chunk):
+                self.r.start(chunk)
+                self.r.rms_peak("a", chunk.col("body_acc"))
+
+            def result(self):
+                return {"body_acc_rms": self.r.rms("a"), "body_acc_peak": self.r.peak("a")}
+    """
+
+    def per_car(run: RunView) -> dict:
+        return {k: float(np.asarray(v, dtype=float).reshape(-1)[0]) for k, v in one_chunk(acc, _OneCar(run)).items()}
+
+    def ensemble(ens: EnsembleView) -> dict:
+        return one_chunk(acc, ens)
+
+    per_car.__name__ = per_car.__qualname__ = acc.__name__
+    per_car.__module__, per_car.__doc__ = acc.__module__, acc.__doc__
+    per_car.ensemble, per_car.stream, per_car.ensemble_channels = ensemble, acc, tuple(acc.channels)
+    return per_car
+
+
+class CornerRmsPeak(Accumulator):
+    """A per-corner RMS-and-peak metric: ``{key}_rms{s}`` and ``{key}_peak{s}`` (max |x|) of channel
+    ``{channel}{s}`` for every corner suffix ``s``.  A subclass sets :attr:`channel` and :attr:`key`, and may
+    add per-corner keys after them with :meth:`more`."""
 
     channel = ""
     key = ""
 
-    def __init__(self, meta: EnsembleView):
-        self.meta, self.r = meta, Reductions()
+    def __init_subclass__(cls, **kw):
+        super().__init_subclass__(**kw)
+        cls.channels = (f"{cls.channel}{{s}}",)
 
-    def update(self, ens: EnsembleView) -> None:
-        self.r.start(ens)
-        for s in ens.suffixes:
-            x = ens.col(f"{self.channel}{s}")
-            self.r.sum(f"ss{s}", x * x)
-            self.r.max(f"pk{s}", np.abs(x))
+    def update(self, chunk: EnsembleView) -> None:
+        self.r.start(chunk)
+        for s in chunk.suffixes:
+            self.r.rms_peak(s, chunk.col(f"{self.channel}{s}"))
 
     def more(self, s: str, rms: np.ndarray) -> dict:
-        """Further keys of corner ``s`` from its streamed RMS (none by default)."""
+        """Further keys of corner ``s`` from its RMS (none by default)."""
         return {}
 
     def result(self) -> dict:
-        n, out = self.meta.n_cars, {}
+        out = {}
         for s in self.meta.suffixes:
-            r = self.r.rms(f"ss{s}", n)
+            r = self.r.rms(s)
             out[f"{self.key}_rms{s}"] = r
-            out[f"{self.key}_peak{s}"] = self.r.get(f"pk{s}", n)
+            out[f"{self.key}_peak{s}"] = self.r.peak(s)
             out.update(self.more(s, r))
         return out

@@ -40,8 +40,9 @@ factor with ``scipy.signal.resample_poly``) to at least :data:`MIN_FILTER_RATE` 
 slower, filtered there and decimated back by taking every L-th sample (the weighted signal carries no
 content above the original Nyquist frequency).  The upsampler extends the record at each end with its end
 value (``padtype="edge"``), so that the start of the weighted signal depends only on the start of the record
-and a long run can be weighted chunk by chunk (:class:`_Iso2631Stream`: the upsampler on overlapping
-segments, the filter state carried over with ``sosfilt``'s ``zi``) with the same result.  At 2 kHz the digital magnitude is within 0.4 % of the
+and the weighting is written once, for a signal that arrives chunk by chunk (:class:`WeightedStream`: the
+upsampler on overlapping segments, the filter state carried over with ``sosfilt``'s ``zi``); a whole record
+is one chunk.  At 2 kHz the digital magnitude is within 0.4 % of the
 analog |W(f)| from 0.1 to 80 Hz.
 
 Quantities (ISO 2631-1 §6)
@@ -61,7 +62,7 @@ import numpy as np
 from scipy import integrate, signal
 
 from ..registry import METRICS
-from .base import EnsembleView, Reductions, RunView, ensemble_version, rms, rms_rows, stream_version
+from .base import Accumulator, metric
 
 #: Parameters (Hz, and quality factors) of ISO 2631-1:1997 Annex A for the weightings provided here.
 WEIGHTINGS: dict[str, dict[str, float]] = {
@@ -135,13 +136,16 @@ def weighted(x, fs: float, name: str = "Wk") -> np.ndarray:
     """The ISO 2631-1 frequency-weighted signal a_w(t) of ``x`` sampled at ``fs`` (Hz), zero initial state
     (runs start at equilibrium).  Signals slower than :data:`MIN_FILTER_RATE` are filtered upsampled."""
     x = np.asarray(x, dtype=float)
-    if x.size == 0:
+    return weighted_rows(x[None, :], fs, name)[0]
+
+
+def weighted_rows(x: np.ndarray, fs: float, name: str = "Wk") -> np.ndarray:
+    """:func:`weighted` of every row of a 2-D array at once (one chunk of a :class:`WeightedStream`)."""
+    x = np.asarray(x, dtype=float)
+    if x.shape[1] == 0:
         return x.copy()
-    up = max(1, int(math.ceil(MIN_FILTER_RATE / fs - 1e-9)))
-    if up == 1:
-        return signal.sosfilt(_weighting_sos(float(fs), name), x)
-    xu = signal.resample_poly(x, up, 1, padtype="edge", window=_upsampling_window(up))
-    return signal.sosfilt(_weighting_sos(float(fs * up), name), xu)[::up][: x.size]
+    w = WeightedStream(x.shape[0], fs, name)
+    return np.concatenate([w.push(x), w.push(None, final=True)], axis=1)
 
 
 @lru_cache(maxsize=16)
@@ -152,102 +156,6 @@ def _upsampling_window(up: int) -> np.ndarray:
     w = signal.firwin(2 * 10 * up + 1, 1.0 / up, window=("kaiser", 5.0))
     w.flags.writeable = False
     return w
-
-
-def weighted_rows(x: np.ndarray, fs: float, name: str = "Wk") -> np.ndarray:
-    """:func:`weighted` of every row of a 2-D array at once (bit-identical to ``weighted`` of each row: scipy's
-    ``resample_poly`` and ``sosfilt`` filter each row with the same arithmetic as a 1-D signal).  The result
-    has the same memory layout per row as ``weighted`` (strided after decimation), so that what follows
-    runs the same numpy loops."""
-    x = np.asarray(x, dtype=float)
-    if x.shape[1] == 0:
-        return x.copy()
-    up = max(1, int(math.ceil(MIN_FILTER_RATE / fs - 1e-9)))
-    if up == 1:
-        return signal.sosfilt(_weighting_sos(float(fs), name), x, axis=-1)
-    xu = signal.resample_poly(x, up, 1, axis=-1, padtype="edge", window=_upsampling_window(up))
-    return signal.sosfilt(_weighting_sos(float(fs * up), name), xu, axis=-1)[:, ::up][:, : x.shape[1]]
-
-
-def vdv(aw, fs: float) -> float:
-    """Fourth-power vibration dose value (∫ a_w⁴ dt)^(1/4) in m/s^1.75 of a weighted signal at ``fs`` Hz."""
-    aw = np.asarray(aw, dtype=float)
-    if aw.size < 2:
-        return 0.0
-    return float(integrate.trapezoid(aw ** 4, dx=1.0 / fs) ** 0.25)
-
-
-def mtvv(aw, fs: float, tau: float = MTVV_TAU) -> float:
-    """Maximum of the running RMS of ``aw`` over windows of ``tau`` s (whole record if shorter)."""
-    aw = np.asarray(aw, dtype=float)
-    n = int(round(tau * fs))
-    if aw.size == 0:
-        return float("nan")
-    if n < 1 or n >= aw.size:
-        return rms(aw)
-    c = np.concatenate([[0.0], np.cumsum(aw * aw)])
-    ms = (c[n:] - c[:-n]) / n
-    return float(np.sqrt(max(np.max(ms), 0.0)))
-
-
-def mtvv_rows(aw: np.ndarray, fs: float, tau: float = MTVV_TAU) -> np.ndarray:
-    """:func:`mtvv` of every row (bit-identical)."""
-    n = int(round(tau * fs))
-    if aw.shape[1] == 0:
-        return np.full(aw.shape[0], np.nan)
-    if n < 1 or n >= aw.shape[1]:
-        return rms_rows(aw)
-    c = np.concatenate([np.zeros((aw.shape[0], 1)), np.cumsum(aw * aw, axis=1)], axis=1)
-    ms = (c[:, n:] - c[:, :-n]) / n
-    return np.array([np.sqrt(max(v, 0.0)) for v in np.max(ms, axis=1)])  # python max, as mtvv does
-
-
-def vdv_rows(aw: np.ndarray, fs: float) -> np.ndarray:
-    """:func:`vdv` of every row (bit-identical: the fourth root is taken per car as a numpy scalar)."""
-    if aw.shape[1] < 2:
-        return np.zeros(aw.shape[0])
-    return np.array([v ** 0.25 for v in integrate.trapezoid(aw ** 4, dx=1.0 / fs, axis=-1)])
-
-
-def weighted_metrics(a, fs: float, prefix: str, name: str = "Wk") -> dict[str, float]:
-    aw = weighted(a, fs, name)
-    awr = rms(aw)
-    w = name.lower()
-    return {
-        f"{prefix}_{w}_rms": awr,
-        f"{prefix}_vdv": vdv(aw, fs),
-        f"{prefix}_{w}_mtvv": mtvv(aw, fs),
-        f"{prefix}_{w}_crest": float(np.max(np.abs(aw)) / awr) if awr > 0 else float("nan"),
-    }
-
-
-@METRICS.register("iso2631")
-def iso2631(run: RunView) -> dict:
-    """ISO 2631-1 Wk-weighted body heave acceleration: RMS, VDV, MTVV (1 s) and crest factor."""
-    a = run.col("body_acc")
-    if run.dt <= 0:
-        return {}
-    return weighted_metrics(a, 1.0 / run.dt, "body_acc", "Wk")
-
-
-@ensemble_version(iso2631, channels=("body_acc",))
-def _iso2631_many(ens: EnsembleView) -> dict:
-    a = ens.col("body_acc")
-    dt = ens.dt
-    if dt <= 0:
-        return {}
-    fs = 1.0 / dt
-    aw = weighted_rows(a, fs, "Wk")
-    awr = rms_rows(aw)
-    mx = np.max(np.abs(aw), axis=1) if aw.shape[1] else np.full(aw.shape[0], np.nan)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        crest = np.where(awr > 0, mx / np.where(awr > 0, awr, 1.0), np.nan)
-    return {
-        "body_acc_wk_rms": awr,
-        "body_acc_vdv": vdv_rows(aw, fs),
-        "body_acc_wk_mtvv": mtvv_rows(aw, fs),
-        "body_acc_wk_crest": crest,
-    }
 
 
 class WeightedStream:
@@ -267,10 +175,10 @@ class WeightedStream:
         self.done = 0  # weighted samples given so far
 
     def push(self, x, final: bool = False) -> np.ndarray:
-        if x is not None and x.shape[1]:
-            self.buf = np.concatenate([self.buf, x], axis=1)
+        if x is not None and x.shape[1]:  # (x may be the logger's buffer: only copies of it are kept)
+            self.buf = x if self.buf.shape[1] == 0 else np.concatenate([self.buf, x], axis=1)
         total = self.buf0 + self.buf.shape[1]
-        if self.up == 1:
+        if self.up == 1:  # no upsampling: every sample filtered at once
             xu, self.done = self.buf, total
             self.buf, self.buf0 = self.buf[:, :0], total
             if xu.shape[1] == 0:
@@ -279,6 +187,7 @@ class WeightedStream:
             return y
         end = total if final else total - self.margin
         if end <= self.done:
+            self.buf = np.array(self.buf)  # kept whole for the next chunk: a copy
             return self.buf[:, :0]
         seg0 = max(self.buf0, self.done - self.margin)
         seg1 = total if final else min(total, end + self.margin)
@@ -288,73 +197,124 @@ class WeightedStream:
         y, self.zi = signal.sosfilt(self.sos, xu, axis=-1, zi=self.zi)
         self.done = end
         keep = max(self.buf0, end - self.margin)
-        self.buf, self.buf0 = self.buf[:, keep - self.buf0:], keep
+        self.buf, self.buf0 = np.array(self.buf[:, keep - self.buf0:]), keep
         return y[:, ::self.up]
 
 
-@stream_version(iso2631)
-class _Iso2631Stream:
-    """Weighted RMS, VDV, MTVV and crest factor of a streamed log (:class:`WeightedStream`; the running sum
-    of a_w² for the MTVV windows is carried over exactly, the last window's worth kept)."""
+class WeightedStats:
+    """RMS, peak, VDV and MTVV of a weighted signal a_w that arrives in chunks (``(n_cars, rows)`` each, at
+    ``fs`` Hz): :meth:`take` each, :meth:`result` at the end.  The running sum of a_w² for the MTVV windows is
+    carried over exactly (the last window's worth kept).  Each chunk is reduced when the next one comes (or
+    at the end), so that a record given as one :class:`WeightedStream` chunk (its samples returned in two
+    pieces) is reduced in one pass."""
 
-    def __init__(self, meta: EnsembleView):
-        self.n = meta.n_cars
-        self.w = None
-        self.r = Reductions()
+    def __init__(self, n_cars: int, fs: float, tau: float = MTVV_TAU):
+        self.n, self.fs = n_cars, fs
+        self.win = int(round(tau * fs))
         self.n_aw = 0
-        self.c_tail = np.zeros((self.n, 1))  # the last values of the running sum of a_w² (c[0] = 0)
-        self.best = np.full(self.n, -np.inf)
+        self.ss = np.zeros(n_cars)
+        self.pk = np.full(n_cars, np.nan)
+        self.vdv4 = np.zeros(n_cars)
         self.prev4 = None
+        self.c_tail = np.zeros((n_cars, 1))  # the last values of the running sum of a_w² (c[0] = 0)
+        self.best = np.full(n_cars, -np.inf)
+        self.pending = None
 
-    def update(self, ens: EnsembleView) -> None:
-        if self.w is None:
-            if ens.dt <= 0:
-                return
-            self.fs = 1.0 / ens.dt
-            self.win = int(round(MTVV_TAU * self.fs))
-            self.w = WeightedStream(self.n, self.fs, "Wk")
-        self.r.start(ens)
-        self._take(self.w.push(ens.col("body_acc")))
+    def take(self, aw: np.ndarray, last: bool = False) -> None:
+        """One chunk of a_w; ``last``: the record's last one (reduced together with the one before)."""
+        if self.pending is not None:
+            if last:
+                aw = np.concatenate([self.pending, aw], axis=1)
+            else:
+                self._reduce(self.pending)
+            self.pending = None
+        if last:
+            if aw.shape[1]:
+                self._reduce(aw)
+        elif aw.shape[1]:
+            self.pending = aw
 
-    def _take(self, aw: np.ndarray) -> None:
-        if aw.shape[1] == 0:
-            return
+    def _reduce(self, aw: np.ndarray) -> None:
         sq = aw * aw
-        self.r.sum("ss", sq)
-        self.r.max("pk", np.abs(aw))
-        a4 = aw ** 4
+        self.ss = self.ss + np.sum(sq, axis=1)
+        m = np.max(np.abs(aw), axis=1)
+        self.pk = m if self.n_aw == 0 else np.maximum(self.pk, m)
+        a4 = sq * sq  # a_w⁴ as (a_w²)² (pow(a_w, 4) costs 60 times more; the two differ by an ulp or two)
         if self.prev4 is not None:
             a4 = np.concatenate([self.prev4, a4], axis=1)
         if a4.shape[1] > 1:
-            self.r.sum_value("vdv4", integrate.trapezoid(a4, dx=1.0 / self.fs, axis=-1))
+            self.vdv4 = self.vdv4 + integrate.trapezoid(a4, dx=1.0 / self.fs, axis=-1)
         self.prev4 = a4[:, -1:]
-        # running sum carried sequentially (np.cumsum from the last value: the one-pass cumsum's numbers)
-        c = np.cumsum(np.concatenate([self.c_tail[:, -1:], sq], axis=1), axis=1)[:, 1:]
-        k0 = self.n_aw + 1  # global index (in c) of c[:, 0]
-        full = np.concatenate([self.c_tail, c], axis=1)  # global indices k0 - tail .. k0 + len(c) - 1
-        g0 = k0 - self.c_tail.shape[1]
-        ks = np.arange(max(self.win, k0), k0 + c.shape[1])
-        if self.win >= 1 and ks.size:
-            ms = (full[:, ks - g0] - full[:, ks - self.win - g0]) / self.win
+        # running sum carried sequentially (np.cumsum from the last value: the one-pass cumsum's numbers);
+        # windows ending at global index k (in c) of this chunk: c[k] - c[k - win]
+        full = np.concatenate([self.c_tail, np.cumsum(np.concatenate([self.c_tail[:, -1:], sq], axis=1),
+                                                      axis=1)[:, 1:]], axis=1)
+        k0 = self.n_aw + 1  # global index of the chunk's first running-sum value
+        g0 = k0 - self.c_tail.shape[1]  # global index of full[:, 0]
+        a, b = max(self.win, k0) - g0, k0 + aw.shape[1] - g0
+        if self.win >= 1 and b > a:
+            ms = (full[:, a:b] - full[:, a - self.win:b - self.win]) / self.win
             self.best = np.maximum(self.best, np.max(ms, axis=1))
         self.n_aw += aw.shape[1]
         self.c_tail = full[:, -(self.win + 1):] if self.win >= 1 else full[:, -1:]
 
     def result(self) -> dict:
+        """``rms``, ``peak``, ``vdv`` (m/s^1.75; 0 below two samples) and ``mtvv`` (the RMS when the record is
+        no longer than the window), ``(n_cars,)`` each."""
+        if self.pending is not None:
+            self._reduce(self.pending)
+            self.pending = None
+        n = self.n
+        rms = np.sqrt(self.ss / self.n_aw) if self.n_aw else np.full(n, np.nan)
+        # the fourth root as two square roots: correctly rounded, so one car and many give the same numbers
+        # (numpy's vectorised pow(v, 0.25) differs from its scalar one by an ulp)
+        vdv_ = np.sqrt(np.sqrt(self.vdv4)) if self.n_aw >= 2 else np.zeros(n)
+        mt = rms if self.win < 1 or self.win >= self.n_aw else np.sqrt(np.maximum(self.best, 0.0))
+        return {"rms": rms, "peak": self.pk, "vdv": vdv_, "mtvv": mt}
+
+
+def _stats(aw, fs: float, tau: float = MTVV_TAU) -> dict:
+    st = WeightedStats(1, fs, tau)
+    st.take(np.asarray(aw, dtype=float).reshape(1, -1), last=True)
+    return st.result()
+
+
+def vdv(aw, fs: float) -> float:
+    """Fourth-power vibration dose value (∫ a_w⁴ dt)^(1/4) in m/s^1.75 of a weighted signal at ``fs`` Hz."""
+    return float(_stats(aw, fs)["vdv"][0])
+
+
+def mtvv(aw, fs: float, tau: float = MTVV_TAU) -> float:
+    """Maximum of the running RMS of ``aw`` over windows of ``tau`` s (whole record if shorter)."""
+    return float(_stats(aw, fs, tau)["mtvv"][0])
+
+
+@METRICS.register("iso2631")
+@metric
+class Iso2631(Accumulator):
+    """ISO 2631-1 Wk-weighted body heave acceleration: RMS, VDV, MTVV (1 s) and crest factor."""
+
+    channels = ("body_acc",)
+
+    def __init__(self, meta):
+        super().__init__(meta)
+        self.w = None
+
+    def update(self, chunk) -> None:
+        if self.w is None:
+            if chunk.dt <= 0:
+                return
+            self.w = WeightedStream(self.n, 1.0 / chunk.dt, "Wk")
+            self.stats = WeightedStats(self.n, 1.0 / chunk.dt)
+        self.stats.take(self.w.push(chunk.col("body_acc")))
+
+    def result(self) -> dict:
         if self.w is None:
             return {}
-        self._take(self.w.push(None, final=True))
-        n = self.n
-        awr = np.sqrt(self.r.get("ss", n) / self.n_aw) if self.n_aw else np.full(n, np.nan)
-        mx = self.r.get("pk", n)
+        self.stats.take(self.w.push(None, final=True), last=True)
+        st = self.stats.result()
+        awr = st["rms"]
         with np.errstate(divide="ignore", invalid="ignore"):
-            crest = np.where(awr > 0, mx / np.where(awr > 0, awr, 1.0), np.nan)
-        if self.n_aw < 2:
-            vdv_ = np.zeros(n)
-        else:
-            vdv_ = np.array([v ** 0.25 for v in self.r.get("vdv4", n)])
-        if self.win < 1 or self.win >= self.n_aw:
-            mt = awr
-        else:
-            mt = np.array([np.sqrt(max(v, 0.0)) for v in self.best])
-        return {"body_acc_wk_rms": awr, "body_acc_vdv": vdv_, "body_acc_wk_mtvv": mt, "body_acc_wk_crest": crest}
+            crest = np.where(awr > 0, st["peak"] / np.where(awr > 0, awr, 1.0), np.nan)
+        return {"body_acc_wk_rms": awr, "body_acc_vdv": st["vdv"], "body_acc_wk_mtvv": st["mtvv"],
+                "body_acc_wk_crest": crest}

@@ -2,8 +2,7 @@
 import numpy as np
 
 from ..registry import METRICS
-from ._util import duration, fraction, peak
-from .base import EnsembleView, Reductions, RunView, ensemble_version, fraction_rows, peak_rows, rms, rms_rows, stream_version
+from .base import Accumulator, metric
 
 
 def _sides(info: dict, stop_gap: dict, s: str):
@@ -15,7 +14,8 @@ def _sides(info: dict, stop_gap: dict, s: str):
 
 
 @METRICS.register("suspension_travel")
-def suspension_travel(run: RunView) -> dict:
+@metric
+class SuspensionTravel(Accumulator):
     """RMS and peak suspension travel (m) per corner; time on the stops where a bump_stop effect sets a gap.
 
     Keys (``{s}`` = corner suffix): ``travel_rms{s}``, ``travel_peak{s}`` (max |travel|) and, when the run
@@ -24,79 +24,39 @@ def suspension_travel(run: RunView) -> dict:
     ``travel_stop_time{s}`` (that share times the record length, s).  The sided gaps come from
     ``run.info["stop_gap_sides"]`` when the run recorded them, else the symmetric ``run.stop_gap``.
     """
-    out = {}
-    T = duration(run)
-    for s in run.suffixes:
-        x = run.col(f"travel{s}")
-        out[f"travel_rms{s}"] = rms(x)
-        out[f"travel_peak{s}"] = peak(x)
-        sides = _sides(run.info, run.stop_gap, s)
-        if sides is not None:
-            f = fraction((x < -sides[0]) | (x > sides[1]))
-            out[f"travel_stop_fraction{s}"] = f
-            out[f"travel_stop_time{s}"] = f * T
-    return out
 
+    channels = ("travel{s}",)
 
-@ensemble_version(suspension_travel, channels=("travel{s}",))
-def _suspension_travel_many(ens: EnsembleView) -> dict:
-    out = {}
-    T = duration(ens)
-    n = ens.n_cars
-    infos = ens.infos or [{}] * n
-    gaps = ens.stop_gaps or [{}] * n
-    for s in ens.suffixes:
-        x = ens.col(f"travel{s}")
-        out[f"travel_rms{s}"] = rms_rows(x)
-        out[f"travel_peak{s}"] = peak_rows(x)
-        sides = [_sides(infos[i], gaps[i], s) for i in range(n)]
-        have = [sd is not None for sd in sides]
-        if any(have) and not all(have):
-            raise NotImplementedError("stop gaps on some cars only")  # -> car by car
-        if all(have):
-            lo = np.array([float(sd[0]) for sd in sides])[:, None]
-            hi = np.array([float(sd[1]) for sd in sides])[:, None]
-            f = fraction_rows((x < -lo) | (x > hi))
-            out[f"travel_stop_fraction{s}"] = f
-            out[f"travel_stop_time{s}"] = f * T
-    return out
-
-
-@stream_version(suspension_travel)
-class _SuspensionTravelStream:
-    def __init__(self, meta: EnsembleView):
-        self.meta, self.r = meta, Reductions()
-        n = meta.n_cars
+    def __init__(self, meta):
+        super().__init__(meta)
+        n = self.n
         infos = meta.infos or [{}] * n
         gaps = meta.stop_gaps or [{}] * n
-        self.sides = {}
+        self.sides = {}  # suffix -> (compression gap, extension gap), (n_cars, 1) each
         for s in meta.suffixes:
             sides = [_sides(infos[i], gaps[i], s) for i in range(n)]
             have = [sd is not None for sd in sides]
             if any(have) and not all(have):
-                raise NotImplementedError("stop gaps on some cars only")  # -> decimated car by car
+                raise NotImplementedError("stop gaps on some cars only")  # -> car by car
             if all(have):
-                self.sides[s] = (np.array([float(sd[0]) for sd in sides])[:, None],
-                                 np.array([float(sd[1]) for sd in sides])[:, None])
+                self.sides[s] = tuple(np.array([float(sd[j]) for sd in sides])[:, None] for j in (0, 1))
 
-    def update(self, ens: EnsembleView) -> None:
-        self.r.start(ens)
-        for s in ens.suffixes:
-            x = ens.col(f"travel{s}")
-            self.r.sum(f"ss{s}", x * x)
-            self.r.max(f"pk{s}", np.abs(x))
+    def update(self, chunk) -> None:
+        self.r.start(chunk)
+        for s in chunk.suffixes:
+            x = chunk.col(f"travel{s}")
+            self.r.rms_peak(s, x)
             if s in self.sides:
                 lo, hi = self.sides[s]
                 self.r.count(f"stop{s}", (x < -lo) | (x > hi))
 
     def result(self) -> dict:
-        n, out = self.meta.n_cars, {}
-        T = self.r.duration
+        out = {}
         for s in self.meta.suffixes:
-            out[f"travel_rms{s}"] = self.r.rms(f"ss{s}", n)
-            out[f"travel_peak{s}"] = self.r.get(f"pk{s}", n)
+            out[f"travel_rms{s}"] = self.r.rms(s)
+            out[f"travel_peak{s}"] = self.r.peak(s)
             if s in self.sides:
-                f = self.r.mean(f"stop{s}", n)
+                f = self.r.mean(f"stop{s}")
                 out[f"travel_stop_fraction{s}"] = f
-                out[f"travel_stop_time{s}"] = f * T
+                out[f"travel_stop_time{s}"] = f * self.r.duration
         return out
