@@ -50,7 +50,7 @@ def _lyapunov_run(dt):
         "road": {"type": "bump", "params": {"preset": "lin_kanellakopoulos", "height": 0.02}},
         "sensors": SENSORS,
         "actuator": {"type": "hydraulic", "params": {"spool_limit": None}},
-        "controller": {"type": "lin_kanellakopoulos", "params": {"alpha": 0.9 * 4.515e13, "m1": 0.01}},
+        "controller": {"type": "lin_kanellakopoulos", "params": {"alpha": 0.9 * 4.515e13, "m1": 0.01, "eps1": 1.5}},
         "sim": {"duration": 0.8, "dt": dt, "control_dt": dt, "log_dt": dt},
         "outputs": {"plots": False},
     })
@@ -161,22 +161,30 @@ def test_scalar_and_array_evaluations_agree():
     assert np.allclose(a, b, rtol=1e-9, atol=1e-12)
 
 
-def test_known_parameter_spike_comes_from_the_travel_filter():
-    """The known-parameter run's 58 m/s² (against the paper's ≈ 12–15 m/s² axes) is a ~5 ms spike when the
-    travel passes m1 = 5.5 cm; outside it the acceleration stays inside the paper's range.  Without the
-    nonlinear part of the filter (ε1 = 0, the baseline) there is no spike, but the travel passes its ±8 cm
-    limit: the spike is the price of the filter doing its job."""
+def test_filter_reading_keeps_the_known_run_inside_the_papers_axes():
+    """Eq. (25) prints one unsubscripted filter constant (ε = 1.5); ε1 is reconstructed (0.01 1/s).  With it the
+    known-parameter run of Fig. 2 stays inside the paper's axes (body acc −9…12 m/s², body travel ≤ 0.025 m,
+    load pressure −1e7…5e6 Pa) with the travel inside its ±8 cm limit.  Baselines that must fail: the earlier
+    reading ε1 = ε = 1.5 (a spike of tens of m/s² when the travel passes m1 = 5.5 cm, the body rises beyond the
+    axis) and no nonlinear filter at all (ε1 = 0: the travel passes ±8 cm)."""
     sc = load_scenario(ROOT / "scenarios/lin_fig2.yaml")
     known = dict(sc.expand())["known"]
-    known.sim.duration = 1.0
+    known.sim.duration = 1.5
     known.sim.log_dt = 1e-4
-    plain = known.model_copy(deep=True)
+    assert known.controller.params["eps"] == 1.5 and known.controller.params["eps1"] == 0.01
+    earlier, plain = known.model_copy(deep=True), known.model_copy(deep=True)
+    earlier.controller.params["eps1"] = 1.5
     plain.controller.params["eps1"] = 0.0
-    ts, ts0 = (r.ts for r in Simulation([known, plain]).run())
-    t, a = ts.t.to_numpy(), ts.body_acc.to_numpy()
-    i = int(np.argmax(np.abs(a)))
-    assert a[i] > 40 and abs(abs(ts.travel.to_numpy()[i]) - 0.055) < 0.008  # at the threshold
-    assert np.sum(np.abs(a) > 15) * 1e-4 < 0.008  # a spike of a few ms
-    assert np.max(np.abs(a[np.abs(t - t[i]) > 0.006])) < 15
-    assert np.max(np.abs(ts.travel)) < 0.08
-    assert np.max(np.abs(ts0.body_acc)) < 5 and np.max(np.abs(ts0.travel)) > 0.08
+    ts, ts1, ts0 = (r.ts for r in Simulation([known, earlier, plain]).run())
+
+    def inside(t):
+        a, P = t.body_acc.to_numpy(), t["act.load_pressure"].to_numpy()
+        return (a.min() >= -9 and a.max() <= 12 and t.body_z.max() <= 0.025 and P.min() >= -1e7 and P.max() <= 5e6
+                and np.max(np.abs(t.travel)) < 0.08)
+
+    assert inside(ts)
+    assert not inside(ts1) and not inside(ts0)
+    a1 = ts1.body_acc.to_numpy()
+    i = int(np.argmax(np.abs(a1)))
+    assert a1[i] > 40 and abs(abs(ts1.travel.to_numpy()[i]) - 0.055) < 0.008  # the spike, at the threshold
+    assert np.max(np.abs(ts0.travel)) > 0.08

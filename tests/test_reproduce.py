@@ -115,13 +115,13 @@ def test_reproduce_lin(tmp_path):
     for png in d.glob("*.png"):
         assert png.stat().st_size < 150_000, png
     s = json.loads((d / "summary.json").read_text())
-    # the spike: ~57 m/s² at the filter threshold, converged in the step; outside it within the paper's axes
+    # the filter reading: the default stays under Fig. 2's 12 m/s² axis, the earlier ε1 = ε = 1.5 spikes past it
     h = s["harshness"]
-    assert h["key"]["peak_acc"] > 40 and h["key"]["acc_out_max"] < 15
-    assert all(c["converged"] for c in h["convergence"].values())
+    assert h["key"]["peak_acc_default"] < 12 and h["key"]["peak_acc_earlier"] > 40
+    for f in ("fig2", "fig3", "harshness", "fig4", "fig5", "table1"):  # every key number converged (< 2 %)
+        assert all(c["converged"] for c in s[f]["convergence"].values()), f
     for f in ("fig4", "fig5"):
         assert s[f]["key"]["dev_adaptive"] < 0.6 * s[f]["key"]["dev_nonadaptive"]
-        assert s[f]["convergence"]["dev_adaptive"]["converged"]
 
 
 @pytest.mark.slow
