@@ -27,6 +27,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
+import suspension_sim  # noqa: E402  (first: the package on PYTHONPATH, if any, before bench_results adds ROOT)
 from bench_results import best as _best  # noqa: E402  (CPU time, best of n)
 
 
@@ -60,14 +61,13 @@ def main():
     from suspension_sim.registry import METRICS, load_plugins
     from suspension_sim.results import compute_metrics_many
 
-    import suspension_sim
-
     load_plugins()
     print(f"metrics from {Path(suspension_sim.__file__).parent}, CPU s, best of {a.repeats} "
           f"(load average {os.getloadavg()[0]:.1f})")
     got = {}
     for label, c in cases.items():
-        ch = {k: c["buf"][:, :, j] for j, k in enumerate(c["names"])}
+        buf = np.array(c["buf"])  # its own array (an unpickled one is a view of a flat buffer), as the loop's
+        ch = {k: buf[:, :, j] for j, k in enumerate(c["names"])}
         infos, sfx, t = c["infos"], c["sfx"], c["t"]
         gaps = [inf["stop_gap"] for inf in infos]
 

@@ -232,7 +232,7 @@ class WeightedStats:
             if aw.shape[1]:
                 self._reduce(aw)
         elif aw.shape[1]:
-            self.pending = aw
+            self.pending = np.ascontiguousarray(aw)  # (not a strided view holding the upsampled signal)
 
     def _reduce(self, aw: np.ndarray) -> None:
         sq = aw * aw
