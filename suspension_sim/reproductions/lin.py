@@ -324,9 +324,11 @@ def measures(ts):
 def classify(m, m0):
     """Our reading of the paper's verdicts: J = RMS body acc 0.5–1.5 s; n.c. |ΔJ| < 1 %, s.b. ΔJ ≤ −1 %,
     s.w. 1–20 %, m.w. > 20 % or travel beyond 8 cm; "*" when bump and settling change in opposite senses."""
-    if m is None or m["travel"] > 0.08:
+    if m is None:
         return "m.w.", float("nan")
     d = m["J"] / m0["J"] - 1
+    if m["travel"] > 0.08:
+        return "m.w.", d
     c = "n.c." if abs(d) < 0.01 else "s.b." if d <= -0.01 else "s.w." if d <= 0.20 else "m.w."
     db, ds = m["bump"] / m0["bump"] - 1, m["settle"] / m0["settle"] - 1
     if abs(db) > 0.01 and abs(ds) > 0.01 and np.sign(db) != np.sign(ds) and c in ("s.b.", "s.w."):
