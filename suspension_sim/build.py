@@ -24,7 +24,7 @@ import numpy as np
 
 from .actuators.base import ActuatorContext
 from .components import stack_params, validate_params
-from .config import Scenario
+from .config import EFFECT_PREFIX, Scenario, effect_labels, effect_variation_target
 from .controllers.base import ControlContext
 from .effects.base import EffectContext
 from .errors import ScenarioError
@@ -172,10 +172,8 @@ class System:
         # the name an effect's signals are logged under (effect.LABEL.SIGNAL.k): the type's name, and for a second
         # effect of the same type (e.g. bump stops front and rear with other gaps) NAME#2, NAME#3, ... so that
         # the two never write the same columns
-        seen: dict[str, int] = {}
-        for eff, _ in self.effects:
-            seen[eff.name] = seen.get(eff.name, 0) + 1
-            eff.label = eff.name if seen[eff.name] == 1 else f"{eff.name}#{seen[eff.name]}"
+        for (eff, _), label in zip(self.effects, effect_labels([eff.name for eff, _ in self.effects])):
+            eff.label = label
 
         # actuator --------------------------------------------------------------------------------------
         acls = ACTUATORS.get(sc0.actuator.type, field="actuator.type", source=source)
@@ -201,16 +199,24 @@ class System:
         self.corner_back = xs.max(axis=1, keepdims=True) - xs  # (n_cars, n_corners)
 
         # time-varying parameters -----------------------------------------------------------------------
-        self.variations = []
+        # (a vehicle parameter: its MjModel field; an effect's parameter, effects.<label>.<param>: the effect's
+        # parameter rows, rewritten in place by Effect.set_param; both at the control instants of either loop)
+        self.variations: list = []
         self._const_scratch = None  # MjData scratch for mj_setConst when a mass or inertia varies
+        labels = [eff.label for eff, _ in self.effects]
         for vi, v in enumerate(sc0.vehicle.variations):
+            cfgs = [s.vehicle.variations[vi] for s in self.scenarios]
+            if v.param.startswith(EFFECT_PREFIX):
+                k, name = effect_variation_target(v.param, labels, source, f"vehicle.variations.{vi}.param")
+                eff = self.effects[k][0]
+                cols = [eff.ctx.corners.index(c) for c in v.corners] if v.corners != "all" else None
+                self.variations.append(EffectVariation(eff, name, cols, cfgs))
+                continue
             fld, idx = P.variation_index(v.param)
             if fld.startswith("body"):
                 self._const_scratch = mujoco.MjData(m)
             arr = getattr(m, fld).reshape(-1) if fld == "body_inertia" else getattr(m, fld)
-            nominal = arr[idx].copy()
-            cfgs = [s.vehicle.variations[vi] for s in self.scenarios]
-            self.variations.append((arr, idx, nominal, cfgs))
+            self.variations.append(ModelVariation(arr, idx, cfgs))
 
         # manoeuvre (inertial loads) --------------------------------------------------------------------
         self.maneuver = None
@@ -269,7 +275,7 @@ class System:
             return ("model without tires",
                     f"integrator 'trapezoidal' needs a model with tires ({sc0.vehicle.model!r} has none); "
                     "use implicitfast or RK4")
-        if any("damping" in v.param for v in sc0.vehicle.variations):
+        if any("damping" in v.param and not v.param.startswith(EFFECT_PREFIX) for v in sc0.vehicle.variations):
             return ("time-varying damping",
                     "integrator 'trapezoidal' does not support time-varying damping; use implicitfast or RK4")
         ratio = P.susp_c * self.dt / self.tendon_effective_mass(P.susp_t)
@@ -330,11 +336,9 @@ class System:
         return z[:, 1:-1, :], zd
 
     def apply_variations(self, t: float):
-        for arr, idx, nominal, cfgs in self.variations:
-            vals = np.empty_like(nominal)
-            for i, v in enumerate(cfgs):
-                vals[i] = variation_value(v, t, nominal[i])
-            arr[idx] = vals
+        """Every time-varying parameter at time ``t`` (both loops call this at each control instant)."""
+        for var in self.variations:
+            var.apply(t)
         if self._const_scratch is not None:
             # MuJoCo precomputes the mass matrix of simple (slide-joint) bodies (dof_M0) in mj_setConst: without
             # this a mass change would alter gravity but not inertia
@@ -360,6 +364,9 @@ class System:
         self.build_corner_jacobian()
         self.actuator.reset()
         self.controller.reset()
+        for var in self.variations:
+            if isinstance(var, EffectVariation):
+                var.restore()  # the effects restart from their nominal parameters
         for e, _ in self.effects:
             e.reset()
         for ch in self.sensors:
@@ -410,6 +417,42 @@ class PerCarRNG:
 
     def __getattr__(self, name):  # other draws: the first car's stream (single runs unchanged)
         return getattr(self.rngs[0], name)
+
+
+class ModelVariation:
+    """A time-varying vehicle parameter: the entries ``idx`` (n_cars, k) of the MjModel array ``arr``."""
+
+    def __init__(self, arr, idx, cfgs):
+        self.arr, self.idx, self.cfgs = arr, idx, cfgs
+        self.nominal = arr[idx].copy()
+
+    def apply(self, t: float) -> None:
+        vals = np.empty_like(self.nominal)
+        for i, v in enumerate(self.cfgs):
+            vals[i] = variation_value(v, t, self.nominal[i])
+        self.arr[self.idx] = vals
+
+
+class EffectVariation:
+    """A time-varying parameter ``name`` of a plant effect (``effects.<label>.<param>``), on the effect's corners
+    ``cols`` (indices among its corners; None: all).  The stacked value is set through
+    :meth:`~suspension_sim.effects.base.Effect.set_param`, which rewrites the kernel's parameter rows in place."""
+
+    def __init__(self, effect, name: str, cols, cfgs):
+        self.effect, self.name, self.cfgs = effect, name, cfgs
+        n, k = effect.ctx.n_cars, len(effect.ctx.corners)
+        self.original = getattr(effect.p, name)
+        self.nominal = np.broadcast_to(np.asarray(self.original, dtype=float).reshape(n, -1), (n, k)).copy()
+        self.mask = np.ones(k, bool) if cols is None else np.isin(np.arange(k), cols)
+
+    def apply(self, t: float) -> None:
+        vals = self.nominal.copy()
+        for i, v in enumerate(self.cfgs):
+            vals[i, self.mask] = variation_value(v, t, self.nominal[i, self.mask])
+        self.effect.set_param(self.name, vals)
+
+    def restore(self) -> None:
+        self.effect.set_param(self.name, self.original)
 
 
 def variation_value(v, t: float, nominal):

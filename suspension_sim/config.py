@@ -43,7 +43,10 @@ class EffectCfg(_Strict):
 class VariationCfg(_Strict):
     """A time-varying vehicle parameter (the thesis's parameter variations, mode I).
 
-    ``param`` is a vehicle parameter name (e.g. ``sprung_mass``, ``spring_stiffness``, ``damping``);
+    ``param`` is a vehicle parameter name (e.g. ``sprung_mass``, ``spring_stiffness``, ``damping``), or a plant
+    effect's numeric parameter addressed as ``effects.<label>.<param>`` by the effect's log label (its type, and
+    ``<type>#2``, ``#3``, ... for a second, third effect of the same type: e.g. ``effects.quadratic_damping.c_v``,
+    ``effects.bump_stop#2.stiffness``; ``corners`` then selects among the effect's corners);
     ``mode`` says how ``values`` combine with the nominal value (``add``, ``scale`` or ``set``).
     ``kind``: ``step`` (value i holds from times[i]), ``ramp`` (linear between (times, values) points),
     ``sine`` (values = [amplitude, frequency_hz, phase_rad], offset 0 in the given mode).
@@ -336,8 +339,11 @@ def check_components(sc: Scenario, source: str | None = None) -> None:
         ecls = EFFECTS.get(e.type, field=f"vehicle.effects.{i}.type", source=source)
         validate_params(ecls.Params, e.params, f"vehicle.effects.{i}.params", source)
         _check_corners(e.corners, corners, f"vehicle.effects.{i}.corners", source)
+    labels = effect_labels([e.type for e in sc.vehicle.effects])
     for i, v in enumerate(sc.vehicle.variations):
-        if v.param not in vcls.Params.model_fields:
+        if v.param.startswith(EFFECT_PREFIX):
+            _check_effect_variation(sc, labels, corners, v, i, source)
+        elif v.param not in vcls.Params.model_fields:
             raise ScenarioError(f"unknown vehicle parameter {v.param!r} (known: {', '.join(vcls.Params.model_fields)})",
                                 source=source, field=f"vehicle.variations.{i}.param")
         if v.kind in ("step", "ramp") and len(v.times) != len(v.values):
@@ -370,6 +376,57 @@ def check_components(sc: Scenario, source: str | None = None) -> None:
             raise ScenarioError(
                 f"controller '{sc.controller.type}' needs sensor(s) {', '.join(missing)}: declare them under "
                 f"'sensors' (or set controller.full_state: true)", source=source, field="sensors")
+
+
+EFFECT_PREFIX = "effects."
+
+
+def effect_labels(types: list[str]) -> list[str]:
+    """The log label of each plant effect, in order (``effect.LABEL.SIGNAL.k``, and ``effects.LABEL.PARAM`` in a
+    variation): the type, and ``TYPE#2``, ``TYPE#3``, ... for a second, third effect of the same type."""
+    seen: dict[str, int] = {}
+    out = []
+    for t in types:
+        seen[t] = seen.get(t, 0) + 1
+        out.append(t if seen[t] == 1 else f"{t}#{seen[t]}")
+    return out
+
+
+def effect_variation_target(param: str, labels: list[str], source: str | None = None,
+                            field: str | None = None) -> tuple[int, str]:
+    """(index of the effect, parameter name) addressed by a variation's ``effects.<label>.<param>``; a
+    ScenarioError naming ``source`` and ``field`` when the address is malformed or names no effect."""
+    parts = param[len(EFFECT_PREFIX):].split(".")
+    if len(parts) != 2 or not all(parts):
+        raise ScenarioError(f"an effect parameter is addressed as effects.<label>.<param> (e.g. "
+                            f"effects.bump_stop#2.stiffness), got {param!r}", source=source, field=field)
+    label, name = parts
+    if label not in labels:
+        raise ScenarioError(f"no effect labelled {label!r} (this vehicle's effects: {', '.join(labels) or 'none'})",
+                            source=source, field=field)
+    return labels.index(label), name
+
+
+def _check_effect_variation(sc, labels, corners, v, i, source) -> None:
+    from .registry import EFFECTS
+
+    field = f"vehicle.variations.{i}.param"
+    k, name = effect_variation_target(v.param, labels, source, field)
+    e = sc.vehicle.effects[k]
+    ecls = EFFECTS.get(e.type)
+    p = validate_params(ecls.Params, e.params, f"vehicle.effects.{k}.params", source)
+    numeric = [f for f, _ in type(p).model_fields.items() if _is_number_or_numbers(getattr(p, f))]
+    if name not in numeric:
+        raise ScenarioError(f"effect {labels[k]!r} has no numeric parameter {name!r} (can vary: "
+                            f"{', '.join(numeric) or 'none'})", source=source, field=field)
+    ecorners = corners if e.corners == "all" else list(e.corners)
+    _check_corners(v.corners, ecorners, f"vehicle.variations.{i}.corners", source)
+
+
+def _is_number_or_numbers(x) -> bool:
+    def num(y):
+        return isinstance(y, (int, float)) and not isinstance(y, bool)
+    return num(x) or (isinstance(x, list) and bool(x) and all(num(y) for y in x))
 
 
 def _check_corners(sel, corners, field, source):

@@ -627,7 +627,7 @@ def run_steps(sim, mode: str, progress=None, logger=None):
         fn = type(eff).kernel
         mod, name = _kernel_ref(fn)
         effects.append((mod, name, eff.target))
-        p, st = eff.kernel_data()
+        p, st = eff.kernel_arrays()  # the arrays set_param rewrites (time-varying effect parameters)
         cmap = np.full(nc, -1, dtype=np.int64)
         cmap[np.asarray(sel)] = np.arange(len(sel))
         sig = eff.kernel_signals()

@@ -97,6 +97,20 @@ class Effect:
             self._kd = tuple(f64(np.array(x, dtype=np.float64)) for x in self.kernel_data())
         return self._kd
 
+    def kernel_arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """The (p, st) arrays the kernel runs on, in both loops (built from :meth:`kernel_data` at the first call
+        after :meth:`reset`; :meth:`set_param` rewrites ``p`` in place, the kernel advances ``st``)."""
+        return self._data()
+
+    def set_param(self, name: str, value) -> None:
+        """Set parameter ``name`` during a run (a time-varying ``effects.<label>.<param>`` variation): ``value``
+        as the stacked parameter ((n_cars, 1) or (n_cars, n_sel)).  A kernel effect's parameter rows are
+        rebuilt from :meth:`kernel_data` and written into the running ``p`` in place (the state ``st`` is kept),
+        so the next force of either loop uses the new value; a Python effect reads ``self.p`` itself."""
+        setattr(self.p, name, value)
+        if type(self).kernel is not None and getattr(self, "_kd", None) is not None:
+            self._kd[0][...] = np.asarray(self.kernel_data()[0], dtype=np.float64)
+
     def force(self, s: np.ndarray, v: np.ndarray, t: float, dt: float) -> np.ndarray:
         """The force of every selected corner of every car, (n_cars, n_sel): the kernel broadcast over the
         ensemble (its state advances)."""
