@@ -7,13 +7,18 @@ the data.  ``fit_settings`` (optional dict) fixes the effect's other settings fo
 law).  The signature the effect leaves in data is its ``signature`` attribute.
 
 A declaration is in units of a *data scale*, an expression of the magnitudes the workflow measures on the
-nominal model's simulation of the record: ``s`` (RMS travel, m), ``s_max`` (largest |travel|), ``v`` (RMS
-travel rate, m/s), ``F`` (RMS linear suspension force, N), ``k`` (spring stiffness, N/m), ``c`` (damping,
-N·s/m); ``"1"`` means SI units.  Example (bump stops): the gap starts at 0.7·s_max, the stiffness at
-2·max(k, F/s)::
+nominal model's simulation of the record: ``s`` (RMS travel, m), ``s_max`` (largest |travel|), ``s_comp`` and
+``s_ext`` (largest compression and extension), ``v`` (RMS travel rate, m/s), ``F`` (RMS linear suspension
+force, N), ``k`` (spring stiffness, N/m), ``c`` (damping, N·s/m); ``"1"`` means SI units.  Example (bump
+stops): each side's gap starts at 0.7 of the largest travel to that side, the stiffness at 2·max(k, F/s)::
 
-    free_parameters = {"gap": FreeParameter("s_max", init=0.7, lo=1e-6, starts=(0.5, 0.8)),
+    free_parameters = {"gap_compression": FreeParameter("s_comp", init=0.7, lo=1e-6, hi=2.0, size=False),
+                       "gap_extension": FreeParameter("s_ext", init=0.7, lo=1e-6, hi=2.0, size=False),
                        "stiffness": FreeParameter("max(k, F/s)", init=2.0)}
+
+An effect may also say what fitted values mean on the record (``fitted_notes(params, travel, ci95) ->
+{param: text}``, static; e.g. a bump stop's gap beyond the largest travel, or not distinguishable from one:
+"no extension stop"); the report gives the notes beside the values and in the verdict.
 """
 from __future__ import annotations
 

@@ -127,6 +127,51 @@ def test_engine_matches_independent_truth_and_runs_an_ensemble():
     assert abs(sag - (-40.0 * 9.81 / 16812.0)) < 0.15 * 40.0 * 9.81 / 16812.0, sag
 
 
+def test_bump_stop_gaps_per_side_reach_the_one_kernel():
+    """diagnose fits a stop's compression and extension gaps separately (the declaration), through the effect's
+    one kernel: the engine's force equals the law written out, and a scenario's symmetric ``gap`` gives the
+    same numbers, bit for bit, as both gaps set to it (compiled ensemble loop and the damper path alike)."""
+    from suspension_sim.diagnose.engine import Engine, effect_force
+    from suspension_sim.effects.bump_stop import BumpStop
+
+    assert {"gap_compression", "gap_extension", "stiffness"} == set(BumpStop.free_parameters)
+    t = np.arange(2000) * 1e-3
+    s = 0.06 * np.sin(2 * np.pi * 1.3 * t)
+    v = np.gradient(s, 1e-3)
+    ent = [("bump_stop", "bump_stop", "all", {})]
+    one_sided = effect_force(ent, {"bump_stop.gap_compression": 0.02, "bump_stop.gap_extension": 0.5,
+                                   "bump_stop.stiffness": 1e5}, s, v, 1e-3)
+    np.testing.assert_allclose(one_sided, 1e5 * np.maximum(-0.02 - s, 0.0), rtol=1e-12, atol=1e-9)
+    sym = effect_force(ent, {"bump_stop.gap": 0.02, "bump_stop.stiffness": 1e5}, s, v, 1e-3)
+    both = effect_force(ent, {"bump_stop.gap_compression": 0.02, "bump_stop.gap_extension": 0.02,
+                              "bump_stop.stiffness": 1e5}, s, v, 1e-3)
+    np.testing.assert_array_equal(sym, both)
+    assert np.any(sym > 0) and np.any(sym < 0) and not np.any(one_sided < 0)
+    d = truth.simulate_truth("quarter_car", 3, 1000, {}, seed=5, road_rms=0.03, noise=0.0, outputs=["susp_travel"])
+    eng = Engine("quarter_car", {"road": d["road"]}, 1e-3, ent, truth.QC_NOMINAL)
+    sym = eng.run([{"bump_stop.gap": 0.01, "bump_stop.stiffness": 8e4}])
+    out = eng.run([{"bump_stop.gap_compression": 0.01, "bump_stop.gap_extension": 0.01, "bump_stop.stiffness": 8e4},
+                   {"bump_stop.gap_compression": 0.01, "bump_stop.gap_extension": 1.0, "bump_stop.stiffness": 8e4}])
+    np.testing.assert_array_equal(sym[0], out[0])
+    j = eng.channels.index("susp_travel")
+    assert out[0, :, j].max() > 0.011 and np.abs(out[1] - out[0]).max() > 0  # the extension stop engages
+
+
+def test_a_stop_gap_beyond_the_travel_is_reported_as_no_stop():
+    from suspension_sim.effects.bump_stop import BumpStop
+
+    s = np.array([-0.03, 0.0, 0.02])
+    assert BumpStop.fitted_notes({"gap_compression": 0.025, "gap_extension": 0.015}, s) == {}
+    notes = BumpStop.fitted_notes({"gap_compression": 0.025, "gap_extension": 0.021}, s)
+    assert list(notes) == ["gap_extension"] and notes["gap_extension"].startswith("no extension stop")
+    # engaged by a hair, but its 95 % interval reaches beyond the largest extension: not told from no stop
+    notes = BumpStop.fitted_notes({"gap_compression": 0.025, "gap_extension": 0.019}, s,
+                                  {"gap_compression": [0.024, 0.026], "gap_extension": [0.017, 0.0205]})
+    assert list(notes) == ["gap_extension"]
+    assert BumpStop.fitted_notes({"gap_compression": 0.025, "gap_extension": 0.019}, s,
+                                 {"gap_extension": [0.018, 0.0199]}) == {}
+
+
 def test_a_parameter_set_gives_the_same_outputs_whatever_ran_before_it():
     """The engine reuses one MuJoCo model for every run of a structure: a run with a changed mass (which
     recomputes MuJoCo's mass-derived constants) must not leave its inertia to the runs after it (it did: the
@@ -244,7 +289,8 @@ def test_a_corner_placement_is_a_scenario_effect_on_that_corner_only():
     from suspension_sim.simulation import Simulation
 
     cand = next(c for c in library(load_model({"model": "full_car"})) if c.name == "bump_stop@rl")
-    eff = cand.describe({"bump_stop@rl.gap": 0.005, "bump_stop@rl.stiffness": 5e4})["effect"]
+    eff = cand.describe({"bump_stop@rl.gap_compression": 0.005, "bump_stop@rl.gap_extension": 0.005,
+                         "bump_stop@rl.stiffness": 5e4})["effect"]
     assert eff["corners"] == ["rl"]
     sc = parse_scenario({"vehicle": {"model": "full_car", "effects": [eff]},
                          "road": {"type": "sine", "params": {"amplitude": 0.02, "frequency": 1.5}, "speed": 10},

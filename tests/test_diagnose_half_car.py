@@ -53,7 +53,10 @@ def test_half_car_bump_stop_named_and_confirmed_in_mujoco(tmp_path):
     rep = diagnose(_rec(d, OUTS), HC, tmp_path, confirm=True, plots=False)
     assert [e["name"] for e in rep["effects"]] == ["bump_stop"]
     p = rep["effects"][0]["parameters"]
-    assert abs(p["gap"] / 0.012 - 1) < 0.1 and abs(p["stiffness"] / 8e4 - 1) < 0.3
+    # the gaps are fitted per side (the truth's stop is symmetric: both sides at 12 mm)
+    assert abs(p["gap_compression"] / 0.012 - 1) < 0.1 and abs(p["gap_extension"] / 0.012 - 1) < 0.1, p
+    assert abs(p["stiffness"] / 8e4 - 1) < 0.3, p
+    assert not rep["effects"][0]["notes"], rep["effects"][0]
     assert _shrink(rep) >= 0.8
     mj = rep["mujoco_confirmation"]
     assert mj["status"] == "ok", mj

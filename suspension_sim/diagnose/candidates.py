@@ -38,9 +38,12 @@ class Scales:
     c: float  # damping in use (N s/m)
     has_force: bool
     has_tire: bool = True
+    s_comp: float = 0.0  # largest compression (max of −travel; 0: s_max)
+    s_ext: float = 0.0  # largest extension (max of travel; 0: s_max)
 
     def as_dict(self) -> dict:
-        return {"s": self.s, "s_max": self.s_max, "v": self.v, "F": self.F, "k": self.k, "c": self.c}
+        return {"s": self.s, "s_max": self.s_max, "v": self.v, "F": self.F, "k": self.k, "c": self.c,
+                "s_comp": self.s_comp or self.s_max, "s_ext": self.s_ext or self.s_max}
 
 
 class Candidate:

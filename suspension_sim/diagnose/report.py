@@ -220,9 +220,11 @@ def build_report(D: Diagnosis, out: Path, confirm: bool = True, plots: bool = Tr
         params = {k.split(".", 1)[-1]: fr.params[k] for k in names}
         ci = {k.split(".", 1)[-1]: D.final.ci95.get(k) for k in names}
         desc = cand.describe(D.final.P)
+        notes = {}
         if "effect" in desc:
             params.update({k: v if isinstance(v, str) else float(v) for k, v in desc["effect"]["params"].items()})
-        effects.append({"name": cand.name, "parameters": params, "ci95": ci,
+            notes = effect_notes(D, desc["effect"], ci)
+        effects.append({"name": cand.name, "parameters": params, "ci95": ci, "notes": notes,
                         "evidence": {"round": tr.round, "delta_bic_train": tr.d_bic, "aic_train": tr.aic,
                                      "test_nrmse_before": tr.test_before, "test_nrmse_after": tr.test_after,
                                      "test_excess_over_floor_before": tr.excess_before,
@@ -281,6 +283,26 @@ def build_report(D: Diagnosis, out: Path, confirm: bool = True, plots: bool = Tr
     return report
 
 
+def effect_notes(D: Diagnosis, effect: dict, ci95: dict) -> dict:
+    """The effect's own reading of its fitted values on this record (``fitted_notes(params, travel, ci95)``,
+    e.g. a stop gap beyond the largest travel: "no extension stop"), with the fitted model's travel over the
+    whole record at the effect's corners."""
+    from ..registry import EFFECTS
+
+    notes_of = getattr(EFFECTS.get(effect["type"]), "fitted_notes", None)
+    if notes_of is None or D.record.kind in ("sdof", "damper"):
+        return {}
+    spec, P = D.final.spec, D.final.P
+    eng = D.prob.engine(spec)
+    out = eng.run([P], len(D.record), [(e.label, e.type, e.corners, e.fixed) for e in spec.effects])[0]
+    corners = effect.get("corners")
+    cols = [j for j, c in enumerate(eng.channels) if c.startswith("susp_travel")
+            and (corners is None or any(c == f"susp_travel{k.suffix}" for k in eng.corners if k.name in corners))]
+    if not cols:
+        return {}
+    return dict(notes_of(effect["params"], out[:, cols].ravel(), ci95))
+
+
 def verdict(D, effects, before, after) -> str:
     tail = (f" Unexplained: {D.unexplained:.1f}× the noise floor (the library cannot explain the rest)."
             if D.unexplained else "")
@@ -289,7 +311,8 @@ def verdict(D, effects, before, after) -> str:
             return "No candidate effect lowers the held-out error beyond the noise: nothing is named." + tail
         return ("No candidate effect lowers the held-out error beyond the noise: nothing is named. "
                 "The calibrated nominal model is as good as any in the library on this record.")
-    names = ", ".join(e["name"] for e in effects)
+    names = ", ".join(e["name"] + (f" ({'; '.join(e['notes'].values())})" if e.get("notes") else "")
+                      for e in effects)
     tb = np.sqrt(np.mean(np.square(list(before["test"].values()))))
     ta = np.sqrt(np.mean(np.square(list(after["test"].values()))))
     return (f"Missing: {names}. Held-out NRMSE {tb:.4g} → {ta:.4g} "
@@ -399,6 +422,7 @@ def write_html(D, rep: dict, figs, path: Path) -> None:
         ps = "<br>".join(f"{e(k)} = {v if isinstance(v, str) else format(v, '.5g')}"
                          + (f" [{ef['ci95'][k][0]:.4g}, {ef['ci95'][k][1]:.4g}]" if ef["ci95"].get(k) else "")
                          for k, v in ef["parameters"].items())
+        ps += "".join(f"<br><i>{e(n)}</i>" for n in (ef.get("notes") or {}).values())
         ev = ef["evidence"]
         eff_rows.append(f"<tr><td><b>{e(ef['name'])}</b></td><td>{ps}</td><td>{ev['delta_bic_train']:.1f}</td>"
                         f"<td>{ev['test_nrmse_before']:.4g} → {ev['test_nrmse_after']:.4g}</td><td>{ev['z_test_improvement']:.1f}</td>"

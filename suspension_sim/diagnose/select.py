@@ -171,7 +171,8 @@ class Diagnosis:
 
 
 def _scales(prob: Problem, spec: ModelSpec, P: dict, b: int) -> Scales:
-    """RMS travel, rate and linear suspension force of the nominal simulation (pooled over corners)."""
+    """RMS travel, rate and linear suspension force of the nominal simulation (pooled over corners), and the
+    largest travel overall, in compression and in extension."""
     kind = prob.kind
     if kind == "damper":
         s = prob.inputs["disp"][:b]
@@ -195,8 +196,10 @@ def _scales(prob: Problem, spec: ModelSpec, P: dict, b: int) -> Scales:
     if Fr <= 0 and prob.has_force:
         Fr = float(np.std(np.concatenate([v_ for n, v_ in prob.inputs.items() if n.startswith("force")])))
     has_tire = kind not in ("sdof", "damper")
-    return Scales(float(np.sqrt(np.mean(s ** 2))) or 1e-6, float(np.max(np.abs(s))) or 1e-6,
-                  float(np.sqrt(np.mean(v ** 2))) or 1e-6, Fr or 1.0, k, c, prob.has_force, has_tire)
+    s_max = float(np.max(np.abs(s))) or 1e-6
+    return Scales(float(np.sqrt(np.mean(s ** 2))) or 1e-6, s_max,
+                  float(np.sqrt(np.mean(v ** 2))) or 1e-6, Fr or 1.0, k, c, prob.has_force, has_tire,
+                  s_comp=max(float(np.max(-s)), 1e-3 * s_max), s_ext=max(float(np.max(s)), 1e-3 * s_max))
 
 
 def _with_fit(spec: ModelSpec, fr: FitResult) -> ModelSpec:

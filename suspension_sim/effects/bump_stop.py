@@ -67,13 +67,41 @@ class BumpStop(Effect):
     """
 
     Params = BumpStopParams
-    # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
-    free_parameters = {"gap": FreeParameter("s_max", init=0.7, lo=1e-6, starts=(0.5, 0.8), size=False),
+    # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py): each side's gap on the scale
+    # of the largest travel to that side (s_comp, s_ext), from three starts: both stops engaged, compression
+    # only, extension only (a gap beyond the largest travel is a stop that never engages: see fitted_notes)
+    free_parameters = {"gap_compression": FreeParameter("s_comp", init=0.7, lo=1e-6, hi=2.0, starts=(0.5, 0.8, 1.5),
+                                                        size=False),
+                       "gap_extension": FreeParameter("s_ext", init=0.7, lo=1e-6, hi=2.0, starts=(0.5, 1.5, 0.8),
+                                                      size=False),
                        "stiffness": FreeParameter("max(k, F/s)", init=2.0)}
     signature = ("residual force vs travel is zero inside a band and steep outside; travel clipped near ±gap; "
                  "body-acceleration spikes at end of stroke")
 
     kernel = staticmethod(_kernel)
+
+    @staticmethod
+    def fitted_notes(params: dict, travel, ci95: dict | None = None) -> dict:
+        """What fitted parameters mean on a record whose travel (m, this effect's corners) is ``travel``: a
+        gap beyond the largest travel to its side, or whose 95 % interval reaches beyond it (``ci95``), is a
+        stop that never engages there, or cannot be told from one that never does."""
+        import numpy as np
+
+        s = np.asarray(travel, float)
+        out = {}
+        for pn, side, reach in (("gap_compression", "compression", float(np.max(-s))),
+                                ("gap_extension", "extension", float(np.max(s)))):
+            g = params.get(pn)
+            if g is None:
+                continue
+            up = ((ci95 or {}).get(pn) or [g, g])[1]
+            if g >= reach:
+                out[pn] = (f"no {side} stop: the gap ({1e3 * g:.1f} mm) lies beyond the largest {side} in the "
+                           f"record ({1e3 * reach:.1f} mm)")
+            elif up >= reach:
+                out[pn] = (f"no {side} stop: the gap ({1e3 * g:.1f} mm, 95 % interval up to {1e3 * up:.1f} mm) "
+                           f"cannot be told from one beyond the largest {side} in the record ({1e3 * reach:.1f} mm)")
+        return out
 
     def gaps(self):
         """(compression gap, extension gap) per corner, m (for the metrics and the 3D view)."""
