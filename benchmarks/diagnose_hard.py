@@ -203,7 +203,8 @@ def run_case(name, seed=0, out=None, log=None):
             "floor_true": true_floor, "floor_est": est_floor,
             "false": sorted(named - expect), "before": b, "after": a, "shrink": 1 - a / b,
             "unexplained": rep.get("unexplained_x_floor"), "proposal": (rep.get("proposal") or {}).get("equation"),
-            "worse_channels": worse, "params": {e["name"]: e["parameters"] for e in rep["effects"]}, "wall": wall,
+            "worse_channels": worse, "params": {e["name"]: e["parameters"] for e in rep["effects"]},
+            "notes": {e["name"]: e.get("notes") or {} for e in rep["effects"]}, "wall": wall,
             "verdict": rep["verdict"]}
 
 

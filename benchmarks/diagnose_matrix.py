@@ -126,7 +126,8 @@ def _row(name, seed, noise, eff, expect, rep, d, outs, wall):
     xb, xa = np.sqrt(max(b ** 2 - fl ** 2, 0.0)), np.sqrt(max(a ** 2 - fl ** 2, 0.0))
     return {"case": name, "seed": seed, "noise": noise, "truth": eff, "named": named,
             "correct": sorted(named) == sorted(expect), "before": b, "after": a, "shrink": 1 - a / b, "wall_s": wall,
-            "floor": fl, "excess_shrink": (1 - xa / xb) if xb > 0 else float("nan"), "max_shrink": 1 - fl / b}
+            "floor": fl, "excess_shrink": (1 - xa / xb) if xb > 0 else float("nan"), "max_shrink": 1 - fl / b,
+            "params": {e["name"]: e["parameters"] for e in rep["effects"]}}
 
 
 def main():
@@ -144,7 +145,8 @@ def main():
             rows.append(r)
             print(f"{r['case']:<24} seed {seed}: named {r['named']} correct={r['correct']} test NRMSE "
                   f"{r['before']:.4f} -> {r['after']:.4f} (shrink {100 * r['shrink']:.1f} %, floor {r['floor']:.4f}, "
-                  f"excess shrink {100 * r['excess_shrink']:.1f} %) {r['wall_s']:.0f} s",
+                  f"excess shrink {100 * r['excess_shrink']:.1f} %) {r['wall_s']:.0f} s; truth {r['truth']}, "
+                  f"fitted {r['params']}",
                   flush=True)
     print("\n| hidden effect | named correctly | held-out NRMSE before → after | shrink | noise floor (NRMSE) | "
           "best possible shrink | shrink above the floor | noise | time |")
