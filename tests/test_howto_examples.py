@@ -21,7 +21,7 @@ from suspension_sim.components import Params
 from suspension_sim.config import parse_scenario
 from suspension_sim.controllers.base import Controller
 from suspension_sim.effects.base import Effect
-from suspension_sim.metrics.base import RunView
+from suspension_sim.metrics.base import Accumulator, EnsembleView, RunView, metric
 from suspension_sim.registry import CONTROLLERS, EFFECTS, METRICS, ROADS, VEHICLES
 from suspension_sim.roads.base import Road
 from suspension_sim.simulation import Simulation
@@ -81,6 +81,25 @@ def travel_range(run: RunView) -> dict:
     return {f"travel_range{s}": float(np.ptp(run.col(f"travel{s}"))) for s in run.suffixes}
 
 
+# --- the same metric for speed: its law once, as an accumulator over chunks of (n_cars, samples) ---------
+# (what the built-in metrics do): @metric makes of it the per-car function, the version for a whole ensemble
+# at once (a batch) and the chunk-by-chunk version for long runs
+@metric
+class TravelSpan(Accumulator):
+    """Peak-to-peak suspension travel per corner (m), every car at once."""
+
+    channels = ("travel{s}",)  # what it reads ({s}: every corner), so that a batch logs it
+
+    def update(self, chunk):
+        for s in chunk.suffixes:
+            x = chunk.col(f"travel{s}")  # (n_cars, rows)
+            self.r.max(f"hi{s}", x)
+            self.r.max(f"lo{s}", -x)
+
+    def result(self):
+        return {f"travel_span{s}": self.r.get(f"hi{s}") + self.r.get(f"lo{s}") for s in self.meta.suffixes}
+
+
 # --- a vehicle: an MJCF file in models/ plus a class mapping scenario parameters onto it -----------------
 class HeavyRig(SDOF):
     """The SDOF rig's file (models/sdof.xml) with a heavier default mass; a new vehicle names its own xml."""
@@ -93,7 +112,7 @@ class HeavyRig(SDOF):
 
 EXAMPLES = [(CONTROLLERS, "howto_groundhook", Groundhook), (EFFECTS, "howto_extra_spring", ExtraSpring),
             (ROADS, "howto_ramp", Ramp), (METRICS, "howto_travel_range", travel_range),
-            (VEHICLES, "howto_heavy_rig", HeavyRig)]
+            (METRICS, "howto_travel_span", TravelSpan), (VEHICLES, "howto_heavy_rig", HeavyRig)]
 
 
 @pytest.fixture(autouse=True, scope="module")
@@ -147,6 +166,19 @@ def test_metric_example_is_in_the_summary():
     r = run(with_())
     travel = r.ts["travel"].to_numpy()
     assert r.metrics["travel_range"] == np.ptp(travel)
+
+
+def test_accumulator_metric_example_is_in_the_summary_and_streams():
+    r = run(with_())
+    travel = r.ts["travel"].to_numpy()
+    assert r.metrics["travel_span"] == np.ptp(travel) > 0
+    # a long run feeds it chunk by chunk: the same value
+    t = r.ts["t"].to_numpy()
+    acc = TravelSpan.stream(EnsembleView(channels={}, t=t[:0], suffixes=[""], static_tire_force={}, infos=[{}]))
+    for a in range(0, len(t), 333):
+        acc.update(EnsembleView(channels={"travel": travel[None, a:a + 333]}, t=t[a:a + 333], suffixes=[""],
+                                static_tire_force={}, infos=[{}]))
+    assert acc.result()["travel_span"][0] == np.ptp(travel)
 
 
 def test_vehicle_example_is_heavier():
