@@ -280,6 +280,49 @@ def test_hac_seeded_and_faded():
         parse_scenario({"road": {"type": "hac", "params": {"mu": [1, 2, 3]}}})
 
 
+@pytest.mark.parametrize("surface", ["asphalt", "dirt"])
+def test_a_long_run_drives_a_periodic_hac_road_of_bounded_size(surface):
+    """Past 20 km the Hac road is one period (the filter's samples, the last 200 m blended into the first)
+    repeated without a seam, so its memory does not grow with the duration (before: the whole distance, 153
+    bytes of peak per 2 cm sample, ~1.5 GB at 1e4 s, ~15 GB at 1e5 s); the PSD is still Hac's, and a shorter
+    road is the filter's output as before, sample for sample."""
+    import time
+    import tracemalloc
+
+    from suspension_sim.roads._common import MAX_LENGTH, GriddedProfile, PeriodicProfile
+    from suspension_sim.roads.hac import HAC_COEFFICIENTS, Hac, HacParams, generate_hac, hac_spatial_psd
+
+    p = HacParams(surface=surface)
+    ctx = dict(wheelbase=2.5, mean_speed=20.0, dt=5e-4)
+    # a run shorter than the period: the filter's samples over [-wheelbase, distance + margin], unchanged
+    short = Hac(p, np.random.default_rng(3), RoadContext(duration=500.0, distance=10_000.0, **ctx))
+    n = int(np.ceil((10_000.0 + 50.0 + 2.5) / p.dx)) + 2
+    assert type(short.profiles[0]) is GriddedProfile
+    assert np.array_equal(short.profiles[0].z, generate_hac(p.road, np.random.default_rng(3), n, p.dx))
+    sizes = []
+    for dur in (1.25e3, 1e4, 1e5):
+        tracemalloc.start()
+        t0 = time.process_time()
+        road = Hac(p, np.random.default_rng(3), RoadContext(duration=dur, distance=20.0 * dur, **ctx))
+        cpu = time.process_time() - t0
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        prof = road.profiles[0]
+        assert isinstance(prof, PeriodicProfile) and MAX_LENGTH <= prof.period < 1.01 * MAX_LENGTH
+        assert peak < 400 * 2**20 and cpu < 20  # measured 183 MiB, 0.5 s at every duration
+        sizes.append(prof.z.size)
+    assert sizes[0] == sizes[1] == sizes[2]
+    z, step = prof.z, np.diff(prof.z)
+    assert abs(z[0] - z[-1]) < 5 * step.std()  # the seam is a step like any other (repeated raw: ~17x)
+    assert np.std(z) == pytest.approx(np.sqrt(sum(HAC_COEFFICIENTS[surface][3:])), rel=0.1)  # μ4 + μ5
+    x = np.arange(10.01, 2.5 * prof.period, p.dx)  # across two seams
+    zz = road.height(x / 20, x)
+    assert np.allclose(road.height(0.0, x[:1000] + prof.period), zz[:1000], rtol=0, atol=1e-9)  # x: 2e4 m
+    ratios, sig = octave_ratios(zz[:int(prof.period / p.dx)], p.dx, lambda n: hac_spatial_psd(n, surface),
+                                0.01, 8, 2 ** 15)
+    assert np.all(np.abs(ratios - 1) < TOL), ratios
+
+
 # ---------------------------------------------------------------------------------------------------
 # delays, speed profiles
 

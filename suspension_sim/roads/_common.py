@@ -137,6 +137,10 @@ class PeriodicProfile(GriddedProfile):
         return z
 
 
+#: a run whose random road is longer than this (m) drives a periodic road of this length (bounded memory)
+MAX_LENGTH = 20_000.0
+
+
 def generation_range(ctx, margin: float) -> tuple[float, float]:
     """Distance range [−wheelbase, distance + margin] a random road must cover for a run."""
     return -float(ctx.wheelbase), float(ctx.distance) + float(margin)

@@ -51,6 +51,15 @@ right when the speed varies and for the rear wheels (which meet the same road la
 are exact samples of the continuous process, so content above ≈ 1/(4·dx) is aliased (default
 dx = 0.02 m: exact up to ≈ 12 cycles/m, 250 Hz at 20 m/s).  Tracks, ``fade_in`` and ``margin`` as in
 :mod:`.iso8608`.
+
+A run longer than 20 km (:data:`~._common.MAX_LENGTH`, 1000 s at 20 m/s) drives a periodic road, as the ISO
+8608 one does, so the road's memory does not grow with the duration: the filter runs over one period
+N·dx ≥ 20 km plus a blend of M samples (:func:`periodic_hac`), and the last M samples are blended into the
+first M with weights sin θ, cos θ (θ rising smoothly from 0 to π/2; sin² + cos² = 1 keeps the variance,
+the two stretches being 20 km apart and independent), so that the profile closes on itself without a seam
+and is repeated (:class:`~._common.PeriodicProfile`).  The blend (10 correlation lengths 1/min(μ1, μ2), at
+least 100 m: 200 m for asphalt) is the only stretch whose samples are not the filter's own.  Shorter runs
+are generated as before (the same numbers for the same seed).
 """
 from __future__ import annotations
 
@@ -63,7 +72,7 @@ from scipy.signal import lfilter
 
 from ..components import Params
 from ..registry import ROADS
-from ._common import GriddedProfile, generation_range, tracks_mode
+from ._common import MAX_LENGTH, GriddedProfile, PeriodicProfile, generation_range, tracks_mode
 from .base import Road
 
 HAC_COEFFICIENTS = {
@@ -180,6 +189,18 @@ def generate_hac(road, rng: np.random.Generator, n_samples: int, dx: float, thes
     return np.real((C @ V) @ z)[0]
 
 
+def periodic_hac(road, rng: np.random.Generator, dx: float, thesis_eps0: bool = False) -> np.ndarray:
+    """One period (N samples, N·dx ≥ :data:`MAX_LENGTH`) of a periodic Hac road: the filter's samples over
+    N + M, the last M blended into the first M (module docstring), so that sample N would be sample 0."""
+    m1, m2 = _mu(road)[:2]
+    N = int(np.ceil(MAX_LENGTH / dx))
+    M = int(np.ceil(max(100.0, 10.0 / min(m1, m2)) / dx))
+    z = generate_hac(road, rng, N + M, dx, thesis_eps0)
+    theta = 0.25 * np.pi * (1.0 - np.cos(np.pi * np.arange(M) / M))  # 0 -> π/2, flat at both ends
+    z[:M] = np.sin(theta) * z[:M] + np.cos(theta) * z[N:]
+    return z[:N].copy()
+
+
 class HacParams(Params):
     surface: Literal["asphalt", "dirt"] = Field("asphalt", description="thesis coefficient set (Ch. 2)")
     mu: Optional[list[float]] = Field(None, description="explicit (μ1, μ2, μ3 in 1/m, μ4, μ5 in m²); "
@@ -210,8 +231,12 @@ class Hac(Road):
     def __init__(self, p, rng, ctx):
         super().__init__(p, rng, ctx)
         x0, x1 = generation_range(ctx, p.margin)
-        n = int(np.ceil((x1 - x0) / p.dx)) + 2
         n_prof = 2 if (tracks_mode(ctx) == "independent" and ctx.n_tracks > 1) else 1
+        if x1 - x0 > MAX_LENGTH:  # a long run: one period, repeated (bounded memory)
+            self.profiles = [PeriodicProfile(x0, p.dx, periodic_hac(p.road, rng, p.dx, p.thesis_eps0), p.fade_in)
+                             for _ in range(n_prof)]
+            return
+        n = int(np.ceil((x1 - x0) / p.dx)) + 2
         self.profiles = [GriddedProfile(x0, p.dx, generate_hac(p.road, rng, n, p.dx, p.thesis_eps0), p.fade_in)
                          for _ in range(n_prof)]
 

@@ -46,7 +46,7 @@ from scipy import fft as sfft
 
 from ..components import Params
 from ..registry import ROADS
-from ._common import GriddedProfile, PeriodicProfile, generation_range, tracks_mode
+from ._common import MAX_LENGTH, GriddedProfile, PeriodicProfile, generation_range, tracks_mode
 from .base import Road
 
 N0 = 0.1  # cycles/m, ISO 8608 reference spatial frequency
@@ -86,10 +86,6 @@ class Iso8608Params(Params):
     @property
     def gd(self) -> float:
         return float(self.gd_n0) if self.gd_n0 is not None else CLASS_GD_N0[self.road_class]
-
-
-#: a run whose road is longer than this (m) drives a periodic road of this length (bounded memory)
-MAX_LENGTH = 20_000.0
 
 
 def generate_iso8608(p: Iso8608Params, rng: np.random.Generator, x0: float, x1: float):
