@@ -230,8 +230,7 @@ class System:
             scls = SENSORS.get(scfg.type, field=f"sensors.{i}.type", source=source)
             sp_ = stack_params([validate_params(scls.Params, s.sensors[i].params, f"sensors.{i}.params", source)
                                 for s in self.scenarios], nc)
-            rng = PerCarRNG([np.random.default_rng([s.sim.seed, 2631, i]) for s in self.scenarios])
-            self.sensors.append(SensorChannel(scfg, scls(sp_, sctx), self.control_dt, rng))
+            self.sensors.append(SensorChannel(scfg, scls(sp_, sctx), self.control_dt, self.sensor_rng(i)))
 
         # controller ------------------------------------------------------------------------------------
         ccls = CONTROLLERS.get(sc0.controller.type, field="controller.type", source=source)
@@ -369,8 +368,29 @@ class System:
                 var.restore()  # the effects restart from their nominal parameters
         for e, _ in self.effects:
             e.reset()
-        for ch in self.sensors:
+        for j, ch in enumerate(self.sensors):
+            ch.rng = self.sensor_rng(j, ch.rng)  # the noise streams start over too: a run started again repeats
             ch.reset()
+
+    def sensor_rng(self, j: int, current=None) -> "PerCarRNG":
+        """The noise generator of sensor ``j`` at the start of a run: one stream per car, seeded by the car's
+        ``sim.seed`` (the same alone and in any ensemble).  ``current`` is returned when it is that generator,
+        still unused (seeding costs ~30 µs per car and sensor)."""
+        key = (tuple(s.sim.seed for s in self.scenarios), j)
+        if isinstance(current, PerCarRNG) and current.key == key and current.fresh:
+            return current
+        return PerCarRNG([np.random.default_rng([s.sim.seed, 2631, j]) for s in self.scenarios], key)
+
+    def reset_cars(self, cars, state: PlantState) -> None:
+        """Restart the components of the cars ``cars`` in the middle of a run (the vectorised env restarting a
+        car in place), the other cars untouched: the actuator's and the effects' kernel states back to their
+        initial values, and each sensor's pipeline (delay line, sample-and-hold) restarted on ``state``, the
+        true plant quantities of those cars now.  The roads, the noise streams and the controller go on."""
+        self.actuator.reset_cars(cars)
+        for e, _ in self.effects:
+            e.reset_cars(cars)
+        for ch in self.sensors:
+            ch.reset_cars(cars, state)
 
     def build_corner_jacobian(self):
         """Rows of each suspension tendon restricted to the body dofs (for corner body kinematics)."""
@@ -398,24 +418,55 @@ class PerCarRNG:
 
     BLOCK = 256  # standard normals drawn ahead per car (the same stream as one draw per call, far cheaper)
 
-    def __init__(self, rngs):
+    def __init__(self, rngs, key=None):
         self.rngs = rngs
+        self.key = key  # what it was seeded from (System.sensor_rng)
+        self.fresh = True  # no draw yet
         self._buf: dict = {}
 
     def normal(self, loc=0.0, scale=1.0, size=None):
+        self.fresh = False
         n = len(self.rngs)
         if size is None or np.ndim(loc) or np.ndim(scale) or len(tuple(size)) < 1 or tuple(size)[0] != n:
             if size is None or n == 1:
                 return self.rngs[0].normal(loc, scale, size)
             return np.stack([g.normal(loc, scale, tuple(size)[1:]) for g in self.rngs])
         key = tuple(size)[1:]
-        buf, pos = self._buf.get(key, (None, self.BLOCK))
-        if pos == self.BLOCK:
-            buf, pos = np.stack([g.standard_normal((self.BLOCK,) + key) for g in self.rngs]), 0
-        self._buf[key] = (buf, pos + 1)
-        return loc + scale * buf[:, pos]  # = Generator.normal(loc, scale) value by value
+        buf, pos = self._block(key)
+        if pos[0] == self.BLOCK and (pos == pos[0]).all():  # every car at the end of its block: one refill
+            buf[...] = np.stack([g.standard_normal((self.BLOCK,) + key) for g in self.rngs])
+            pos[:] = 0
+        if (pos == pos[0]).all():
+            out = loc + scale * buf[:, pos[0]]  # = Generator.normal(loc, scale) value by value
+            pos += 1
+            return out
+        return self.normal_cars(np.arange(n), scale, key, loc)
+
+    def normal_cars(self, cars, scale, key, loc=0.0):
+        """Normal draws of shape ``key`` for the cars ``cars`` only, (len(cars),) + key, each from its car's
+        stream (the other cars' streams do not move)."""
+        self.fresh = False
+        key = tuple(key)
+        buf, pos = self._block(key)
+        cars = np.asarray(cars, dtype=np.intp).reshape(-1)
+        for i in cars:
+            if pos[i] == self.BLOCK:
+                buf[i] = self.rngs[i].standard_normal((self.BLOCK,) + key)
+                pos[i] = 0
+        out = loc + scale * buf[cars, pos[cars]]
+        pos[cars] += 1
+        return out
+
+    def _block(self, key):
+        if key not in self._buf:  # standard normals drawn ahead, per car, and each car's next one
+            self._buf[key] = (np.empty((len(self.rngs), self.BLOCK) + key),
+                              np.full(len(self.rngs), self.BLOCK, dtype=np.int64))
+        return self._buf[key]
 
     def __getattr__(self, name):  # other draws: the first car's stream (single runs unchanged)
+        if name.startswith("__"):
+            raise AttributeError(name)
+        self.fresh = False
         return getattr(self.rngs[0], name)
 
 

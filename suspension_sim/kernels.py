@@ -117,3 +117,66 @@ def f64(a) -> np.ndarray:
     if not a.flags.c_contiguous or not a.flags.writeable:
         a = np.ascontiguousarray(a).copy() if not a.flags.writeable else np.ascontiguousarray(a)
     return a
+
+
+class KernelState:
+    """Base of the components whose kernel keeps a state ``st`` (actuators, effects): per-car reset.
+
+    The loops advance the ``st`` array that :meth:`kernel_data` hands them in place (the Python loop the one it
+    keeps, the compiled loop its own).  This base remembers those arrays (weakly, until :meth:`forget_states`,
+    which ``reset()`` calls), so that :meth:`reset_cars` can put single cars back to their initial state in
+    whichever loop runs them (the vectorised env restarting a car in place).  The initial state is the one
+    :meth:`kernel_data` gives: a component's law and its initial state stay in one place.  A component whose
+    state lives elsewhere (plain numpy ``force``/``advance``) overrides :meth:`reset_cars`."""
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        fn = cls.__dict__.get("kernel_data")
+        if fn is not None and not getattr(fn, "_keeps_state", False):
+            cls.kernel_data = _keeping_state(fn)
+
+    def forget_states(self) -> None:
+        self._live_st = []
+
+    def initial_state(self) -> np.ndarray:
+        """The kernel state ``st`` of a start of run (a new array, not remembered)."""
+        self._kd_depth = getattr(self, "_kd_depth", 0) + 1
+        try:
+            return f64(self.kernel_data()[1])
+        finally:
+            self._kd_depth -= 1
+
+    def reset_cars(self, cars) -> None:
+        """Put the kernel state of the cars ``cars`` (indices) back to its initial value; other cars untouched."""
+        cars = np.asarray(cars, dtype=np.intp).reshape(-1)
+        live = [st for st in (r() for r in getattr(self, "_live_st", [])) if st is not None]
+        if not cars.size or not live:
+            return
+        st0 = self.initial_state()
+        for st in live:
+            if st.shape == st0.shape:
+                st[cars] = st0[cars]
+
+
+def _keeping_state(fn):
+    import functools
+    import weakref
+
+    @functools.wraps(fn)
+    def kernel_data(self):
+        depth = getattr(self, "_kd_depth", 0)
+        self._kd_depth = depth + 1
+        try:
+            p, st = fn(self)
+        finally:
+            self._kd_depth = depth
+        if depth:  # a nested call (a subclass calling its parent's, or initial_state): not handed out
+            return p, st
+        p, st = f64(p), f64(st)
+        live = [r for r in getattr(self, "_live_st", []) if r() is not None]
+        live.append(weakref.ref(st))
+        self._live_st = live
+        return p, st
+
+    kernel_data._keeps_state = True
+    return kernel_data

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..components import NoParams
-from ..kernels import broadcast_actuator_advance, broadcast_actuator_force, call, f64, pack
+from ..kernels import KernelState, broadcast_actuator_advance, broadcast_actuator_force, call, f64, pack
 
 
 @dataclass
@@ -37,12 +37,13 @@ class ActuatorContext:
     static_suspension_force: np.ndarray  # (n_cars, n_corners)
 
 
-class Actuator:
+class Actuator(KernelState):
     """Base class.  A built-in actuator sets ``Params`` and ``command_unit``, sets :attr:`kernel_force` and
     :attr:`kernel_advance` (its law, written once), implements :meth:`kernel_data` (parameters and initial
     state as the kernels' arrays) and declares :meth:`kernel_states`; a subclass that overrides :meth:`reset`
     calls ``super().reset()``.  A user's actuator may instead override :meth:`force`, :meth:`advance` and
-    :meth:`states` in plain numpy; it then runs in the Python loop."""
+    :meth:`states` in plain numpy; it then runs in the Python loop (and overrides :meth:`reset_cars` if it keeps
+    a state)."""
 
     name = "actuator"
     Params = NoParams
@@ -59,6 +60,14 @@ class Actuator:
         """Reset the internal state (the kernel state restarts from :meth:`kernel_data`)."""
         self._kd = None
         self._F = np.zeros((self.ctx.n_cars, self.ctx.n_corners))
+        self.forget_states()
+
+    def reset_cars(self, cars) -> None:
+        """Reset the internal state of the cars ``cars`` only (the kernel state back to :meth:`kernel_data`'s
+        initial value, in whichever loop runs; the last force to zero), e.g. a car the vectorised env
+        restarts in place."""
+        super().reset_cars(cars)
+        self._F[np.asarray(cars, dtype=np.intp)] = 0.0
 
     # the law: module-level numba @njit functions for one corner of one car, p and st its rows of
     # kernel_data() (st updated in place): kernel_force(cmd, s, v, t, dt, p, st) -> float, the force over the
@@ -83,7 +92,7 @@ class Actuator:
         if getattr(self, "_kd", None) is None:
             if type(self).kernel_force is None:
                 raise NotImplementedError(f"actuator {self.name!r} has neither kernels nor force()/advance()")
-            self._kd = tuple(f64(np.array(x, dtype=np.float64)) for x in self.kernel_data())
+            self._kd = tuple(f64(x) for x in self.kernel_data())  # the arrays handed out (reset_cars)
         return self._kd
 
     def _args(self, *arrays):

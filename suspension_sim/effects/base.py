@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..components import NoParams
-from ..kernels import broadcast_effect, call, f64, pack
+from ..kernels import KernelState, broadcast_effect, call, f64, pack
 
 
 @dataclass
@@ -40,11 +40,12 @@ class EffectContext:
     effective_mass: np.ndarray | None = None
 
 
-class Effect:
+class Effect(KernelState):
     """Base class.  A built-in effect sets ``Params`` (pydantic), ``target`` and ``signature``, sets
     :attr:`kernel` (its law, written once), implements :meth:`kernel_data` (parameters and initial state as
     the kernel's arrays) and declares :meth:`kernel_signals`.  A user's effect may instead override
-    :meth:`force` (and :meth:`signals`) in plain numpy; it then runs in the Python loop."""
+    :meth:`force` (and :meth:`signals`) in plain numpy; it then runs in the Python loop (and overrides
+    :meth:`reset_cars` if it keeps a state)."""
 
     name = "effect"
     target = "suspension"  # or "tire"
@@ -70,8 +71,9 @@ class Effect:
 
     def reset(self) -> None:
         """Reset internal state (the kernel state restarts from :meth:`kernel_data`); a subclass that
-        overrides it calls ``super().reset()``."""
+        overrides it calls ``super().reset()``.  :meth:`reset_cars` resets single cars."""
         self._kd = None
+        self.forget_states()
 
     # the law: a module-level numba @njit function (s, v, t, dt, p, st) -> float, the force of one corner of
     # one car; p and st are that corner's rows of kernel_data() (st updated in place)
@@ -94,7 +96,7 @@ class Effect:
         if getattr(self, "_kd", None) is None:
             if type(self).kernel is None:
                 raise NotImplementedError(f"effect {self.name!r} has neither a kernel nor a force()")
-            self._kd = tuple(f64(np.array(x, dtype=np.float64)) for x in self.kernel_data())
+            self._kd = tuple(f64(x) for x in self.kernel_data())  # the arrays handed out (reset_cars)
         return self._kd
 
     def kernel_arrays(self) -> tuple[np.ndarray, np.ndarray]:

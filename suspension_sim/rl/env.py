@@ -54,7 +54,9 @@ model, one loop call per control step for all cars).  Car i is the single env se
 together at ``sim.duration``, and the next ``step`` starts a new episode for all (new draws per car).  A car
 that terminates early is reset in place at the next ``step`` (autoreset mode NEXT_STEP): its body and wheels
 are put at rest on the road under them and the episode goes on from there with zero command for that step;
-the actuator's internal state (lag, delay line) and the sensors' delay lines are not reset.  A diverging
+its actuator (lag, delay line, spool and pressure, coil currents), its effects' states and its sensors (delay
+lines, sample-and-hold) start again from their initial state, as in a new env (``System.reset_cars``; the
+other cars are untouched, and the car's road and noise stream go on).  A diverging
 car stops the ensemble's run: that car terminates, the others truncate, and all start a new episode.
 """
 from __future__ import annotations
@@ -277,7 +279,7 @@ class _Core:
             return False
         from ..registry import ROADS
         from ..roads.base import RoadContext
-        from ..build import PerCarRNG, SpeedProfile
+        from ..build import SpeedProfile
         from ..components import validate_params
 
         sim = self.sim
@@ -295,9 +297,7 @@ class _Core:
             speeds.append(sp)
             roads.append(rcls(rp, np.random.default_rng([seed, 8608]), rctx))
         sim.speeds, sim.roads = speeds, roads
-        for j, ch in enumerate(sim.sensors):
-            ch.rng = PerCarRNG([np.random.default_rng([s.sim.seed, 2631, j]) for s in scenarios])
-        sim.scenarios = list(scenarios)
+        sim.scenarios = list(scenarios)  # the sensors' noise streams restart from these seeds (System.reset)
         return True
 
     def start(self, scenarios):
@@ -493,7 +493,8 @@ class SuspensionVectorEnv(gym.vector.VectorEnv):
         cmd = core.command(actions)
         restarted = self._restart.copy()
         if restarted.any():
-            core.runner.restart_cars(np.nonzero(restarted)[0], np.asarray(core.state.road))
+            core.runner.restart_cars(np.nonzero(restarted)[0], np.asarray(core.state.road),
+                                     np.asarray(core.state.road_vel))
             core.wk.reset(restarted)
             cmd[restarted] = 0.0
         obs, diverged = core.advance(cmd)

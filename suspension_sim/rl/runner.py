@@ -94,13 +94,19 @@ class EnsembleRunner:
             self._restore()
 
     # -- restart of single cars (vector env autoreset) ------------------------------------------------
-    def restart_cars(self, cars, road) -> None:
+    def restart_cars(self, cars, road, road_vel=None) -> None:
         """Put the cars ``cars`` back near their static equilibrium on the road under them (wheels at the road
         height ``road`` (n_cars, n_corners), body heave at its mean, pitch and roll level, all at rest), at
-        the current control instant; the other cars are untouched.  Called between :meth:`step` calls (the
-        loop waits at a control instant after ``mj_step1``: the derived quantities are recomputed here)."""
-        P = self.sim.plant
+        the current control instant, with their components restarted (:meth:`System.reset_cars`: actuator and
+        effect states, sensor delay lines and holds, as at the start of a run); the other cars are untouched.
+        Called between :meth:`step` calls (the loop waits at a control instant after ``mj_step1``: the
+        derived quantities are recomputed here)."""
+        from ..loop import plant_state
+
+        sim = self.sim
+        P = sim.plant
         m, d = P.model, P.data
+        cars = np.asarray(cars, dtype=np.intp).reshape(-1)
         for i in cars:
             d.qpos[P.body_q[i]] = 0.0
             d.qvel[P.body_v[i]] = 0.0
@@ -108,3 +114,9 @@ class EnsembleRunner:
             d.qpos[P.wheel_q[i]] = road[i]
             d.qvel[P.wheel_v[i]] = 0.0
         mujoco.mj_step1(m, d)
+        # the restarted cars' true state now, as at the start of a run: no last-step acceleration, no force yet
+        road = np.asarray(road, dtype=float)
+        road_vel = np.zeros_like(road) if road_vel is None else np.asarray(road_vel, dtype=float)
+        zero = np.zeros((P.n, P.nc))
+        state = plant_state(sim, float(sim.t), road, road_vel, np.zeros(m.nv), zero, zero)
+        sim.reset_cars(cars, state)

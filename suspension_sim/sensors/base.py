@@ -139,20 +139,57 @@ class SensorChannel:
     def reset(self):
         self._buf: deque = deque(maxlen=self.delay_steps + 1)
         self._held = None
-        self._k = 0
+        self._k = np.zeros(self.sensor.ctx.n_cars, dtype=np.int64)  # samples taken, per car (the hold phase)
 
     def sample(self, s: PlantState) -> np.ndarray:
         true = np.asarray(self.sensor.read(s), dtype=float)
-        self._buf.append(true.copy())
+        if self._buf:
+            self._buf.append(true.copy())
+        else:  # the line starts full of the first value (as a sensor switched on: the first sample is held)
+            self._buf.extend(true.copy() for _ in range(self.delay_steps + 1))
         delayed = self._buf[0]
-        if self._k % self.hold_steps == 0 or self._held is None:
-            delayed = np.ascontiguousarray(delayed, dtype=np.float64)
-            if self.cfg.noise_std > 0:
-                noise = np.ascontiguousarray(self.rng.normal(0.0, self.cfg.noise_std, size=delayed.shape), dtype=np.float64)
-            else:
-                noise = np.zeros_like(delayed)
-            y = np.empty_like(delayed)
-            measure_all(delayed, float(self.cfg.bias), noise, float(self.cfg.quantization), y)
+        due = self._k % self.hold_steps == 0
+        if self._held is None or due.all():
+            self._held = self._measure(delayed, None)
+        elif due.any():  # cars restarted out of phase (reset_cars): only they sample now
+            cars = np.nonzero(due)[0]
+            y = self._held.copy()
+            y[cars] = self._measure(delayed[cars], cars)
             self._held = y
         self._k += 1
         return self._held
+
+    def _measure(self, delayed, cars):
+        """Bias, noise and quantisation of the delayed value (all cars, or the rows of ``cars``)."""
+        delayed = np.ascontiguousarray(delayed, dtype=np.float64)
+        if self.cfg.noise_std > 0:
+            if cars is None:
+                z = self.rng.normal(0.0, self.cfg.noise_std, size=delayed.shape)
+            elif hasattr(self.rng, "normal_cars"):
+                z = self.rng.normal_cars(cars, self.cfg.noise_std, delayed.shape[1:])
+            else:
+                z = self.rng.normal(0.0, self.cfg.noise_std, size=delayed.shape)
+            noise = np.ascontiguousarray(z, dtype=np.float64)
+        else:
+            noise = np.zeros_like(delayed)
+        y = np.empty_like(delayed)
+        measure_all(delayed, float(self.cfg.bias), noise, float(self.cfg.quantization), y)
+        return y
+
+    def reset_cars(self, cars, s: PlantState) -> None:
+        """Restart the pipeline of the cars ``cars`` as a sensor switched on now, reading ``s`` (the true
+        state of those cars at this control instant; rows of other cars are ignored): their delay line is
+        filled with the value read, their sample is taken now (with its noise draw from the car's own stream)
+        and held from here.  Other cars are untouched.  The noise stream goes on (it is not replayed)."""
+        cars = np.asarray(cars, dtype=np.intp).reshape(-1)
+        if not cars.size:
+            return
+        true = np.asarray(self.sensor.read(s), dtype=float)
+        if not self._buf:
+            return  # nothing sampled yet: the first sample starts every car's line
+        for b in self._buf:
+            b[cars] = true[cars]
+        y = self._held.copy()
+        y[cars] = self._measure(true[cars], cars)
+        self._held = y
+        self._k[cars] = 1
