@@ -165,6 +165,12 @@ BB_CASES = {  # label: (bump height m, bump length m, sigmoid slope a s/m)
     "1 m × 15 cm bump, a = 4": (0.15, 1.0, 4.0),
     "1 m × 15 cm bump, a = 1000": (0.15, 1.0, 1000.0),
 }
+# Near sgn (a = 1000) the chattering closed loop is chaotic: one run's RMS heave acceleration changes by tens of per
+# cent when the bump height changes by 1e-6 relative (0.1 µm), so a single run has no step-converged value.  Those rows
+# are measured as the mean over BB_REALISATIONS runs whose bump heights differ by k·BB_PERTURBATION (relative)
+# and whose sensor-noise seeds differ (realisation 0 is the nominal run of the table).
+BB_REALISATIONS = 128
+BB_PERTURBATION = 1e-6
 
 
 def bang_bang(ctx) -> ItemOutput:
@@ -184,6 +190,7 @@ def bang_bang(ctx) -> ItemOutput:
             s.sim.control_dt = s.sim.control_dt / ctx.step_factor
             runs[(lab, k)] = s
     res = ctx.run({f"{lab}|{k}": s for (lab, k), s in runs.items()}, label="fallah bang-bang")
+    ens = bb_realisations(ctx, runs, res)
     rows, key = [], {}
     for lab, (h, L, a) in BB_CASES.items():
         pas = res[f"{lab.split(',')[0]}, a = 4|passive"]
@@ -195,20 +202,29 @@ def bang_bang(ctx) -> ItemOutput:
             rows.append([lab, "noisy" if "noisy" in k else "ideal", f"{ha:.3f} ({ha / pa:.2f}× passive)",
                          f"{ta / tp:.2f}×", f"{fs['peak']:.0f} N", f"{fs['sat']:.1%}", f"{fs['flips']:.1f}",
                          f"{fs['dF'] / 1e3:.0f} kN/s"])
-            key[f"heave_ratio[{lab},{k}]"] = (ha / pa, 0.05)
+            # near sgn the key number is the mean over the realisations (one chaotic run has no converged value)
+            key[f"heave_ratio[{lab},{k}]"] = (ens[(lab, k)].mean() if (lab, k) in ens else ha / pa, 0.05)
             key[f"peak_force[{lab},{k}]"] = (fs["peak"], 300.0)
     table = md_table(["input, sigmoid", "sensors", "RMS heave acc. (m/s²)", "RMS vert. acc. above corners vs passive",
                        "peak |F|", "time at ≥ 95 % f_max", "sign changes /s/corner", "RMS dF/dt"], rows)
+    ens_rows = [[lab, "noisy" if "noisy" in k else "ideal", f"{x[0]:.3f}", f"{x.mean():.3f} ± {x.std(ddof=1) / np.sqrt(len(x)):.3f}",
+                 f"{x.std(ddof=1):.3f} ({x.std(ddof=1) / x.mean():.0%})", f"{x.min():.2f}–{x.max():.2f}",
+                 f"{np.mean(x > 1):.0%}"] for (lab, k), x in ens.items()]
+    ens_table = md_table(["input, sigmoid", "sensors", "nominal run: heave acc. vs passive",
+                          f"mean of {BB_REALISATIONS} realisations ± s.e.", "s.d. (relative)", "min–max",
+                          "realisations worse than passive"], ens_rows)
     g = {lab: {k: res[f"{lab}|{k}"] for k in ("fallah", "fallah_noisy")} for lab in BB_CASES}
     steep_noisy = force_stats(g["5 m bump, a = 1000"]["fallah_noisy"])
-    steep_ratio = rms(g["5 m bump, a = 1000"]["fallah_noisy"].ts.body_acc) / rms(res["5 m bump, a = 4|passive"].ts.body_acc)
+    steep = ens[("5 m bump, a = 1000", "fallah_noisy")]
+    steep_ratio = float(steep.mean())
     short_ratio = rms(g["1 m × 15 cm bump, a = 4"]["fallah"].ts.body_acc) / rms(res["1 m × 15 cm bump, a = 4|passive"].ts.body_acc)
     claims = [
         Claim("bang-bang law (17) near sgn (a = 1000 s/m), noisy sensors, 5 m bump",
               "robust optimal; forces within ±6000 N",
-              f"heave acc. {steep_ratio:.2f}× passive; peak {steep_noisy['peak']:.0f} N, {steep_noisy['sat']:.0%} of "
+              f"heave acc. {steep_ratio:.2f}× passive (mean of {len(steep)} realisations, all "
+              f"{steep.min():.2f}–{steep.max():.2f}×); peak {steep_noisy['peak']:.0f} N, {steep_noisy['sat']:.0%} of "
               f"the time at the bound, {steep_noisy['flips']:.0f} sign changes/s/corner",
-              "not" if steep_ratio > 1 else "partly", "noise on the switching function makes the sgn chatter"),
+              "not" if steep.min() > 1 else "partly", "noise on the switching function makes the sgn chatter"),
         Claim("short high bump (1 m × 15 cm), a = 4, ideal sensors", "(not in the paper)",
               f"heave acc. {short_ratio:.2f}× passive", "n.a.",
               "a wheel-hop-frequency input: the law (tuned for body motion) does not help"),
@@ -248,14 +264,46 @@ def bang_bang(ctx) -> ItemOutput:
     pa5 = rms(res["5 m bump, a = 4|passive"].ts.body_acc)
     r05 = {k: rms(ex[f"ctrl05|{k}"].ts.body_acc) / pa5 for k in ("fallah", "fallah_noisy")}
     r1 = {k: rms(g["5 m bump, a = 1000"][k].ts.body_acc) / pa5 for k in ("fallah", "fallah_noisy")}
-    notes = ["Step halving here halves the physics step and holds the 1 ms control step: near sgn, the sampled law "
+    x5 = ens[("5 m bump, a = 1000", "fallah")]
+    notes = [f"Near sgn (a = 1000) the closed loop is chaotic: bump heights 1e-6 (0.1 µm) apart relative give 5 m bump, "
+             f"ideal-sensor heave ratios from {x5.min():.2f} to {x5.max():.2f} (s.d. {x5.std(ddof=1) / x5.mean():.0%}) at "
+             "one step, so a single run has no step-converged value (the nominal run at 0.5, 0.25, 0.125, 0.0625 ms "
+             "physics step: 2.04, 1.92, 2.71, 1.98, no trend).  Those rows' key numbers are the means over "
+             f"{BB_REALISATIONS} realisations (bump height × (1 + k·{BB_PERTURBATION:g}), sensor-noise seed + k), whose "
+             "standard error is ≈ 1 % (ideal 5 m bump) and less elsewhere; the step-halving change of such a mean "
+             "is therefore known to about ±1.5 %.",
+             "Step halving here halves the physics step and holds the 1 ms control step: near sgn, the sampled law "
              "chatters with an amplitude set by the control period, so halving that changes the law as run, not the "
              f"accuracy of the simulation (5 m bump, a = 1000, ideal sensors: {r1['fallah']:.2f}× passive at 1 ms, "
              f"{r05['fallah']:.2f}× at 0.5 ms; noisy: {r1['fallah_noisy']:.2f}× and {r05['fallah_noisy']:.2f}×).",
              f"Smooth range: a = 40 s/m peaks at {force_stats(ex['a40|fallah'])['peak']:.0f} N; 20 and 30 cm × 5 m "
              f"bumps (a = 4) at {force_stats(ex['h0.2|fallah'])['peak']:.0f} and "
              f"{force_stats(ex['h0.3|fallah'])['peak']:.0f} N (f_max {F_MAX:.0f} N)."]
-    return ItemOutput(claims, key=key, figure=fig, tables=[table], notes=notes)
+    return ItemOutput(claims, key=key, figure=fig, tables=[table, ens_table], notes=notes)
+
+
+def bb_realisations(ctx, runs, res) -> dict:
+    """Heave-acceleration ratios to passive of the near-sgn rows over :data:`BB_REALISATIONS` realisations: the
+    bump height × (1 + k·:data:`BB_PERTURBATION`) and the sim seed (the sensor noise) + k; k = 0 is the run
+    already in ``res``.  One ensemble per row."""
+    out = {}
+    for lab, (h, L, a) in BB_CASES.items():
+        if a == 4.0:
+            continue
+        pa = rms(res[f"{lab.split(',')[0]}, a = 4|passive"].ts.body_acc)
+        for k in ("fallah", "fallah_noisy"):
+            base = runs[(lab, k)]
+            scs = {}
+            for j in range(1, BB_REALISATIONS):
+                s = base.model_copy(deep=True)
+                s.road.params["height"] = h * (1.0 + BB_PERTURBATION * j)
+                s.sim.seed = base.sim.seed + j
+                scs[f"{j}"] = s
+            r = ctx.run(scs, label=f"fallah bang-bang realisations ({lab}, {k})")
+            x = [rms(res[f"{lab}|{k}"].ts.body_acc) / pa] + [rms(r[f"{j}"].ts.body_acc) / pa
+                                                              for j in range(1, BB_REALISATIONS)]
+            out[(lab, k)] = np.array(x)
+    return out
 
 
 SOURCES.register("fallah")(Source(
