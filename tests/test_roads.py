@@ -363,6 +363,38 @@ def test_spatial_bump_under_a_varying_speed():
     assert np.max(np.abs(zd[:, 0] - dzdx * v)) < 0.01 * np.max(np.abs(dzdx * v))
 
 
+def test_a_long_run_with_a_speed_table_does_not_tabulate_every_step(monkeypatch):
+    """A speed table was tabulated on the physics grid (24 bytes per step: 4.8 GB at 1e5 s); past
+    MAX_GRID steps the same law runs in closed form, within a micrometre of the grid's (the grid interpolates
+    the quadratic distance linearly between steps), and the rear wheels' time inverts it exactly."""
+    import time
+    import tracemalloc
+
+    from suspension_sim.build import SpeedProfile
+
+    table = [[0.0, 5.0], [3.0, 25.0], [10.0, 25.0], [12.5, 0.0], [14.0, 0.0], [16.0, 30.0]]
+    for dur in (2.5e3, 1e5):  # 5e6 and 2e8 steps of 0.5 ms
+        tracemalloc.start()
+        t0 = time.process_time()
+        sp = SpeedProfile(table, dur, 5e-4)
+        cpu, peak = time.process_time() - t0, tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        assert peak < 2**20 and cpu < 1.0  # measured 4 KB, 1 ms
+        assert sp.distance(dur) == pytest.approx(401.25 + 30 * (dur - 20))
+        assert sp.max_distance == pytest.approx(sp.distance(dur + 5e-4)) and sp.mean(dur) > 29.0
+    grid = SpeedProfile(table, 20.0, 5e-4)
+    monkeypatch.setattr(SpeedProfile, "MAX_GRID", 100)
+    closed = SpeedProfile(table, 20.0, 5e-4)
+    assert grid.knots is None and closed.knots is not None
+    t = np.linspace(-1.0, 25.0, 20001)
+    assert np.abs(closed.distance(t) - grid.distance(t)).max() < 1e-6
+    assert np.abs(closed.speed(t) - grid.speed(t)).max() < 1e-12
+    moving = (t > 0) & ((t < 12.5) | (t > 14.0)) & (t < 20.0)  # standing still, the time is not unique
+    assert np.allclose(closed.time_at(closed.distance(t[moving]), 0.0), t[moving], rtol=0, atol=1e-9)
+    x = np.linspace(-5.0, grid.max_distance, 20001)
+    assert np.abs(closed.time_at(x, 7.0) - grid.time_at(x, 7.0)).max() < 1e-5
+
+
 def test_simulated_runs_with_each_road():
     for road in ({"type": "round_step", "params": {"time_constant": 0.05}},
                  {"type": "chirp", "params": {"duration": 0.5, "f0": 1, "f1": 5}},
