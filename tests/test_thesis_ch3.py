@@ -182,3 +182,24 @@ def test_dirt_road_mode_two_passive_sags_adaptive_keeps_level(dirt):
     expected = (100 * G + 0.1 * 250 * G) / (0.9 * 5000)
     assert -np.mean(p.body_z[p.t > 8]) == pytest.approx(expected, rel=0.05)
     assert abs(np.mean(a.body_z[a.t > 8])) < 0.01
+
+
+def test_dirt_road_following_is_the_nominal_design_not_the_adaptation(dirt):
+    """A skeptical check of Sec. 3.4 ("adapts to the unknown mode II parameters"): the same controller with the
+    Θ adaptation off (γ = 0, nominal Θ, our θ_d kept) keeps the level and follows the reference PSD as closely as
+    the adaptive one near resonance (measured 0.66 vs 0.67 of the reference at 0.5–1 Hz, following 1.24 vs
+    1.11 mm).  This pins the finding (page: Ch. 3 dirt road); an adaptation that mattered would fail it."""
+    ts_a, ts_n = dirt["mrac"].ts, dirt["mrac_nonadaptive"].ts
+    assert ts_n["ctrl.theta.1"].iloc[-1] == ts_n["ctrl.theta.1"].iloc[0]  # Θ frozen
+    fs = 1.0 / (ts_a.t[1] - ts_a.t[0])
+    sa, sn = ts_a[ts_a.t > 8], ts_n[ts_n.t > 8]
+    f, Pref = welch(sa["ctrl.ref_acc"].to_numpy(), fs=fs, nperseg=8192)
+    _, Pa = welch(sa["body_acc"].to_numpy(), fs=fs, nperseg=8192)
+    _, Pn = welch(sn["body_acc"].to_numpy(), fs=fs, nperseg=8192)
+    for lo, hi in ((0.5, 1.0), (1.0, 2.0)):
+        assert abs(np.log10(band_ratio(f, Pn, Pref, lo, hi) / band_ratio(f, Pa, Pref, lo, hi))) < np.log10(1.5)
+    assert abs(np.mean(sn.body_z)) < 0.01
+    ref = sa["ctrl.ref_x"].to_numpy()
+    fa = np.sqrt(np.mean((sa.body_z.to_numpy() - ref) ** 2))
+    fn = np.sqrt(np.mean((sn.body_z.to_numpy() - ref) ** 2))
+    assert fn < 1.5 * fa

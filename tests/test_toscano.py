@@ -110,12 +110,19 @@ def varying():
     return _runs("toscano_varying.yaml", 8.0)
 
 
-def test_constant_estimates_converge(constant):
-    ts = constant["controlled"].ts
-    last = ts[ts.t > ts.t.iloc[-1] - 3.0]
-    assert last["ctrl.fk_hat"].mean() == pytest.approx(15000.0, rel=0.05)
-    assert last["ctrl.fb_hat"].mean() == pytest.approx(1500.0, rel=0.05)
-    assert abs(last["ctrl.v_err"]).max() < 0.2 * abs(last["body_vel"]).max()
+def test_constant_estimates_converge(constant, constant_frozen):
+    """From β̂ = 0 the estimates reach 15000 N/m, 1500 N·s/m within 5 % and the estimation error ṽ falls below
+    0.2× the body velocity; the same law with adaptation off (λ = 0, same start) fails both."""
+    def converged(ts):
+        last = ts[ts.t > ts.t.iloc[-1] - 3.0]
+        return (abs(last["ctrl.fk_hat"].mean() / 15000.0 - 1) < 0.05
+                and abs(last["ctrl.fb_hat"].mean() / 1500.0 - 1) < 0.05
+                and abs(last["ctrl.v_err"]).max() < 0.2 * abs(last["body_vel"]).max())
+
+    assert converged(constant["controlled"].ts)
+    assert not converged(constant_frozen.ts)
+    last = constant_frozen.ts[constant_frozen.ts.t > constant_frozen.ts.t.iloc[-1] - 3.0]
+    assert abs(last["ctrl.v_err"]).max() > 0.2 * abs(last["body_vel"]).max()  # ṽ does not vanish either
 
 
 @pytest.mark.parametrize("case", ["constant", "varying"])
@@ -134,16 +141,6 @@ def test_current_within_limits(case, request):
     assert ts[["act.current_push", "act.current_pull"]].to_numpy().min() >= 0.0
     assert ts[["act.voltage_push", "act.voltage_pull"]].abs().to_numpy().max() <= p.u_max + 1e-9
     assert ts["act.current_push"].max() > 1.0  # the actuator works
-
-
-def test_varying_stiffness_is_tracked(varying):
-    ts = varying["controlled"].ts
-    last = ts[ts.t > ts.t.iloc[-1] - 4.0]
-    k_true = 15000.0 + 5000.0 * np.sin(3.0 * last.t)
-    b_true = 1500.0 + 500.0 * np.sin(4.0 * last.t)
-    # closer to the varying truth than the constant nominal value (whose error is the variation itself)
-    assert _rms(last["ctrl.fk_hat"] - k_true) < _rms(k_true - 15000.0)
-    assert _rms(last["ctrl.fb_hat"] - b_true) < _rms(b_true - 1500.0)
 
 
 def _rms(x):
@@ -169,13 +166,19 @@ def _controlled(name, duration, sets):
     return dict(sc.expand(path))["controlled"]
 
 
-def test_adaptation_is_what_makes_the_reference_followed(constant):
+@pytest.fixture(scope="module")
+def constant_frozen():
+    """toscano_constant's controlled car with the adaptation switched off (λ = 0), from the same β̂ = 0."""
+    path = str(SCENARIOS / "toscano_constant.yaml")
+    return Simulation([_controlled("toscano_constant.yaml", 8.0, ["controller.params.lambda_k=0",
+                                                                  "controller.params.lambda_b=0"])], path).run()[0]
+
+
+def test_adaptation_is_what_makes_the_reference_followed(constant, constant_frozen):
     """From the same initial estimates (β̂ = 0: f̂_k = f̂_b = 0, −100 %), the adaptive law meets the bounds
     (estimates within 5 %, NRMSE body displacement to the reference < 0.1; measured 0.02) and the same law
     with the adaptation switched off (λ = 0) fails both."""
-    path = str(SCENARIOS / "toscano_constant.yaml")
-    frozen = Simulation([_controlled("toscano_constant.yaml", 8.0, ["controller.params.lambda_k=0",
-                                                                     "controller.params.lambda_b=0"])], path).run()[0]
+    frozen = constant_frozen
     ref = constant["reference"].ts
 
     def passes(ts):

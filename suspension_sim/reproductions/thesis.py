@@ -259,7 +259,16 @@ def ch3_dirt(ctx) -> ItemOutput:
 
     ra = [ratio(Pa, *b) for b in bands]
     rp = [ratio(Pp, *b) for b in bands]
-    za, zp = mean(a, "body_z", 8, 1e9), mean(p, "body_z", 8, 1e9)
+    n = res["mrac_nonadaptive"].ts
+    _, Pn = welch(n[n.t > 8].body_acc.to_numpy(), fs=fs, nperseg=8192)
+    rn = [ratio(Pn, *b) for b in bands]
+    za, zp, zn = mean(a, "body_z", 8, 1e9), mean(p, "body_z", 8, 1e9), mean(n, "body_z", 8, 1e9)
+
+    def follow(ts):
+        m = (ts.t > 8).to_numpy()
+        return float(np.sqrt(np.mean((ts.body_z.to_numpy()[m] - a["ctrl.ref_x"].to_numpy()[m]) ** 2)))
+
+    fa, fn = follow(a), follow(n)
     dip = float(np.min(a.body_z.to_numpy()[win(a, 0, 3)]))
     closer = all(abs(np.log10(x)) < abs(np.log10(y)) for x, y in zip(ra[1:3], rp[1:3]))
     claims = [
@@ -274,6 +283,13 @@ def ch3_dirt(ctx) -> ItemOutput:
               "reproduced" if closer else "not",
               "adaptive within 0.45–0.7× of the reference (it isolates more than the reference at the 0.01 s step); "
               "no low-frequency deviation after 8 s"),
+        Claim("the Θ adaptation is what follows: baseline with adaptation off (γ = 0, nominal Θ, θ_d kept)",
+              "adapts to the unknown mode II parameters (Sec. 3.4)",
+              f"adaptation off: level {zn * 1000:.1f} mm, RMS(body − reference) {fn * 1000:.2f} mm (adaptive "
+              f"{fa * 1000:.2f}), PSD / reference " + ", ".join(f"{x:.2f}" for x in rn),
+              "not" if abs(np.log10(rn[1] / ra[1])) < np.log10(1.5) and fn < 1.5 * fa else "reproduced",
+              "the baseline follows as well: the nominal design plus our θ_d do it, the Θ adaptation adds nothing "
+              "measurable; the printed structure (no θ_d) sinks past the 5 m limit within 3.2 s"),
     ]
     fig, ax = plt.subplots(2, 1, figsize=(7.5, 6.0))
     ax[0].plot(p.t, p.body_z, "g-", lw=0.5, label="passive")
@@ -289,7 +305,8 @@ def ch3_dirt(ctx) -> ItemOutput:
     ax[1].legend(fontsize=7)
     fig.suptitle("Thesis Ch. 3 (Figs. 3.11–3.14): dirt road, mode II parameters unknown to the controller", fontsize=9)
     fig.tight_layout()
-    key = {"passive_level": (zp, 0.01), "mrac_level": (za, 0.01), "ratio_res": (ra[1], 0.1), "ratio_hi": (ra[3], 0.1)}
+    key = {"passive_level": (zp, 0.01), "mrac_level": (za, 0.01), "ratio_res": (ra[1], 0.1), "ratio_hi": (ra[3], 0.1),
+           "follow_adaptive": (fa, 1e-3), "follow_nonadaptive": (fn, 1e-3)}
     return ItemOutput(claims, key=key, figure=fig, notes=[HALF_NOTE])
 
 
