@@ -195,32 +195,42 @@ HYDRAULIC = {"type": "hydraulic", "params": {}}
 EM = {"type": "electromagnetic", "params": {}}
 
 
-@pytest.mark.parametrize("actuator", [None, HYDRAULIC, EM], ids=["ideal", "hydraulic", "electromagnetic"])
-def test_vector_autoreset_restarts_actuator_and_sensor_memory(actuator):
+HYSTERESIS = {"model": "quarter_car", "effects": [{"type": "hysteresis", "corners": "all", "params": {}}]}
+
+
+@pytest.mark.parametrize("actuator,vehicle", [(None, None), (HYDRAULIC, None), (EM, None),
+                                              (None, HYSTERESIS), (None, {"model": "half_car"})],
+                         ids=["ideal", "hydraulic", "electromagnetic", "hysteresis_effect", "half_car"])
+def test_vector_autoreset_restarts_actuator_and_sensor_memory(actuator, vehicle):
     """A car that terminates and is restarted in place continues as a fresh env would: on a flat road, at rest,
-    its actuator (lag and delay line; hydraulic spool and pressure; coil currents) and its sensors (delay lines,
-    sample-and-hold phase) start from their initial state, so its observations after the restart equal those
-    of a freshly reset single env under the same actions.  Before the fix the restarted car's delayed
-    travel and force readings still showed the terminated episode."""
+    its actuator (lag and delay line; hydraulic spool and pressure; coil currents), its effects (the Bouc-Wen
+    state) and its sensors (delay lines, sample-and-hold phase) start from their initial state, so its
+    observations after the restart equal those of a freshly reset single env under the same actions.  Before
+    the fix the restarted car's delayed travel and force readings still showed the terminated episode.
+    (implicitfast: the trapezoidal scheme's last-step velocities, held by the loops, are not reset.)"""
     kw = {"action_scale": 1000.0} if actuator is EM else {}  # the coil pair has no command limit of its own
     sc = _lagged_delayed(FLAT, actuator=actuator)
+    if vehicle is not None:
+        sc["vehicle"] = vehicle
     venv = SuspensionVectorEnv(2, sc, reward={"terminate_travel": 0.01}, **kw)
+    nc = venv.single_action_space.shape[0]
     venv.reset(seed=0)
-    push = np.array([[1.0], [0.0]], np.float32)
+    push = np.zeros((2, nc), np.float32)
+    push[0] = 1.0
     for _ in range(150):
         obs, r, term, trunc, _ = venv.step(push)
         if term[0]:
             break
     assert term[0] and not term[1] and np.abs(obs[0]).max() > 1.0  # the lag and the lines hold a lot here
-    acts = np.random.default_rng(5).uniform(-1, 1, (30, 1)).astype(np.float32)
+    acts = np.random.default_rng(5).uniform(-1, 1, (30, nc)).astype(np.float32)
     fresh = SuspensionEnv(sc, reward={"terminate_travel": 1.0}, **kw)
     fresh.reset(seed=0)
-    ref = [fresh.step(np.zeros(1, np.float32))[0]]  # the restart step runs with zero command
+    ref = [fresh.step(np.zeros(nc, np.float32))[0]]  # the restart step runs with zero command
     for a in acts[:-1]:
         ref.append(fresh.step(a)[0])
-    got = [venv.step(np.zeros((2, 1), np.float32))[0][0]]
+    got = [venv.step(np.zeros((2, nc), np.float32))[0][0]]
     for a in acts[:-1]:
-        got.append(venv.step(np.stack([a, np.zeros(1, np.float32)]))[0][0])
+        got.append(venv.step(np.stack([a, np.zeros(nc, np.float32)]))[0][0])
     np.testing.assert_allclose(np.array(got), np.array(ref), rtol=1e-9, atol=1e-9)
 
 
