@@ -172,6 +172,29 @@ def test_a_stop_gap_beyond_the_travel_is_reported_as_no_stop():
                                  {"gap_extension": [0.018, 0.0199]}) == {}
 
 
+def test_a_zero_spring_stage_changes_inertia_not_position_with_its_mass():
+    """A pure integrator (SDOF with no spring, the EMPS stage): its weight is carried by the support at any
+    mass, so a changed mass changes only the inertia.  The static sag Δm·g/k of the zero spring (built as
+    K_EPS) was added to the position: 91 km for 9 g, which froze the EMPS mass at its start value and left
+    the fit a degenerate covariance (zero-width intervals, every size "distinguishable from zero")."""
+    from scipy.integrate import solve_ivp
+
+    from suspension_sim.diagnose.engine import Engine
+
+    dt, n = 1e-3, 3000
+    t = np.arange(n) * dt
+    u = 300.0 * np.sin(2 * np.pi * 1.3 * t) + 120.0 * np.sin(2 * np.pi * 4.1 * t)
+    eng = Engine("sdof", {"force": u}, dt, [], {"sprung_mass": 95.0, "spring_stiffness": 0.0, "damping": 200.0})
+    out = eng.run([{"sprung_mass": 95.0}, {"sprung_mass": 80.0}, {"sprung_mass": 95.0}])
+    j = eng.channels.index("pos")
+    for k, m in ((0, 95.0), (1, 80.0)):
+        ref = solve_ivp(lambda tt, x: [x[1], (np.interp(tt, t, u) - 200.0 * x[1]) / m], (0, t[-1]), [0.0, 0.0],
+                        t_eval=t, rtol=1e-9, atol=1e-12, max_step=dt).y[0]
+        err = np.sqrt(np.mean((out[k, :, j] - ref) ** 2)) / np.std(ref)
+        assert err < 0.01, (m, err)
+    assert np.array_equal(out[0], out[2])
+
+
 def test_a_parameter_set_gives_the_same_outputs_whatever_ran_before_it():
     """The engine reuses one MuJoCo model for every run of a structure: a run with a changed mass (which
     recomputes MuJoCo's mass-derived constants) must not leave its inertia to the runs after it (it did: the

@@ -162,3 +162,58 @@ def test_beyond_proposes_a_one_sided_stop_at_its_gap_from_an_offset_travel_senso
     assert all(abs(float(n[6:-3]) - gap) < 0.005 for n in pr["terms"]), pr
     assert abs(-sum(pr["terms"].values()) / k_stop - 1) < 0.3, pr
     assert "stop in compression" in pr["in_words"]
+
+
+def _replacement_case(rho, fv_after, fv_std=8.0):
+    """A pure-integrator stage with viscous friction (200 ± 5 N·s/m, from the current fit) and a candidate
+    quadratic damping whose joint fit leaves the viscous friction at ``fv_after``, with correlation ``rho``
+    between the two estimates; the held-out error drops by 30 %, significantly."""
+    from suspension_sim.diagnose.calibrate import FitResult
+    from suspension_sim.diagnose.model import FreeParam, ModelSpec
+    from suspension_sim.diagnose.select import Trial
+
+    base = [FreeParam("sprung_mass", 95.0, 1e-4, np.inf, 95.0), FreeParam("damping", 200.0, 0.0, np.inf, 200.0),
+            FreeParam("input.offset", 3.0, -np.inf, np.inf, 1.0)]
+    cur_spec = ModelSpec("sdof", {f.name: f.init for f in base}, base)
+    new_free = base + [FreeParam("quadratic_damping.c_v", 1000.0, 0.0, np.inf, 500.0, size=True)]
+    new_spec = ModelSpec("sdof", {**cur_spec.P, "quadratic_damping.c_v": 1000.0}, new_free)
+    cur = FitResult(cur_spec, np.array([95.0, 200.0, 3.0]), dict(cur_spec.P), 1e-2, 20000,
+                    std={"sprung_mass": 0.5, "damping": 5.0, "input.offset": 0.1})
+    P = {**new_spec.P, "damping": fv_after}
+    corr = np.eye(4)
+    corr[1, 3] = corr[3, 1] = rho
+    new = FitResult(new_spec, np.array([95.0, fv_after, 3.0, 1000.0]), P, 0.5e-2, 20000, corr=corr,
+                    std={"sprung_mass": 0.5, "damping": fv_std, "input.offset": 0.1, "quadratic_damping.c_v": 40.0})
+    sel = Selector.__new__(Selector)
+    sel.rec = types.SimpleNamespace(kind="sdof")
+    sel.prob = types.SimpleNamespace(channels=["pos"])
+    sel.z_min, sel.min_rel_drop, sel.min_excess_drop = 2.0, 0.05, 0.10
+    rng = np.random.default_rng(7)
+    e_cur = 0.2 * rng.standard_normal((4000, 1))
+    e_new = 0.7 * e_cur
+    sel._test_errors = lambda fr: e_new
+    tr = Trial("quadratic_damping", 3, True)
+    sel._judge(tr, new, cur, e_cur, np.array([0.01]), ["quadratic_damping.c_v"])
+    return tr
+
+
+def test_a_candidate_that_replaces_fitted_physics_it_cannot_be_told_from_is_not_named():
+    """EMPS, round 3: quadratic damping drove the viscous friction fitted before it from 200 to 0.016 N·s/m
+    (published 203) while the held-out error fell.  When the joint fit cannot tell the two apart (their
+    estimates correlate beyond 0.95), the pair is reported as not separable and the earlier physics stays."""
+    from suspension_sim.diagnose.select import NOT_SEPARABLE
+
+    tr = _replacement_case(rho=-0.99, fv_after=0.016)
+    assert not tr.kept and NOT_SEPARABLE in tr.reason and "damping" in tr.reason
+    assert tr.replaces[0]["parameter"] == "damping" and tr.replaces[0]["blocking"]
+    # the same gain with the two identifiable (low correlation, significant held-out gain): the data say the
+    # viscous friction is absent, and the replacement is named
+    tr = _replacement_case(rho=0.3, fv_after=0.016)
+    assert tr.kept, tr.reason
+    assert tr.replaces and tr.replaces[0]["separable"]
+    # a candidate that leaves the earlier physics where it was is not a replacement, whatever the correlation
+    tr = _replacement_case(rho=-0.99, fv_after=190.0)
+    assert tr.kept and not tr.replaces, tr.reason
+    # pushed onto its bound (0) without being within 2 standard errors of it is a replacement too
+    tr = _replacement_case(rho=-0.99, fv_after=1.0, fv_std=0.1)
+    assert not tr.kept and NOT_SEPARABLE in tr.reason

@@ -155,6 +155,14 @@ class FitResult:
     nfev: int = 0
     success: bool = True
     offsets: np.ndarray | None = None  # free channel offsets fitted on the training window
+    corr: np.ndarray | None = None  # correlation matrix of the free parameters' estimates (spec.free order)
+
+    def correlation(self, a: str, b: str) -> float:
+        """Correlation of two free parameters' estimates (Gauss–Newton covariance); nan when unknown."""
+        names = [f.name for f in self.spec.free]
+        if self.corr is None or a not in names or b not in names:
+            return float("nan")
+        return float(self.corr[names.index(a), names.index(b)])
 
     @property
     def params(self) -> dict[str, float]:
@@ -251,6 +259,9 @@ def fit(prob: Problem, spec: ModelSpec, a: int, b: int, starts: list[np.ndarray]
         neff = effective_n(r.reshape(n, -1))
         cov_z = s2 * JtJ_inv * (nres / max(neff, 1.0))
         sd = np.sqrt(np.maximum(np.diag(cov_z), 0)) * xs
+        dz = np.sqrt(np.maximum(np.diag(cov_z), 0))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out.corr = np.where(np.outer(dz, dz) > 0, cov_z / np.outer(dz, dz), np.nan)
     except np.linalg.LinAlgError:
         sd = np.full(len(x), np.nan)
     out.std = {f.name: float(s) for f, s in zip(spec.free, sd)}

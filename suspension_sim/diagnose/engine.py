@@ -305,6 +305,21 @@ class Engine:
             dl = J @ q
             m.tendon_lengthspring[:, 0] -= dl
             m.tendon_lengthspring[:, 1] -= dl
+            # the sag shown at the sensors is the real springs' deflection: a zero spring (K_EPS) carries the
+            # static load through its preload, at any mass, like a support (a horizontal stage, a rig on a
+            # stop), so it deflects as if rigid.  (Its own Δm·g/K_EPS, 91 km for 9 g on the EMPS stage, froze
+            # the mass at its start value and made the fit's covariance degenerate.)
+            ks = m.tendon_stiffness.copy()
+            eps = ks <= 1.5 * K_EPS
+            if eps.any():
+                if eps.all():
+                    q = np.zeros(m.nv)
+                else:
+                    ks[eps] = 1e6 * ks[~eps].max()
+                    K = (J.T * ks) @ J
+                    q = np.zeros(m.nv)
+                    q[free] = np.linalg.solve(K[np.ix_(free, free)], dg[free])
+                dl = J @ q
             self._sag = {"body": q[P.body_v], "wheel": q[P.wheel_v] if P.has_tire else None,
                          "travel": dl[P.susp_t],
                          "tire": (-m.tendon_stiffness[P.tire_t] * dl[P.tire_t]) if P.has_tire else None}

@@ -274,6 +274,7 @@ def build_report(D: Diagnosis, out: Path, confirm: bool = True, plots: bool = Tr
         "verdict": verdict(D, effects, before, after),
         "unexplained_x_floor": D.unexplained,
         "proposal": D.proposal,
+        "not_separable": not_separable(D),
     }
     report = _r(report)
     (out / "report.json").write_text(json.dumps(report, indent=1))
@@ -303,9 +304,29 @@ def effect_notes(D: Diagnosis, effect: dict, ci95: dict) -> dict:
     return dict(notes_of(effect["params"], out[:, cols].ravel(), ci95))
 
 
+def not_separable(D) -> list:
+    """Candidates that passed every other test but would have replaced earlier fitted physics they cannot be
+    told apart from on this record (:meth:`.select.Selector._replaced`): the pair is reported, not named."""
+    from .select import NOT_SEPARABLE
+
+    out = []
+    for t in D.trials:
+        if NOT_SEPARABLE in t.reason:
+            for r in t.replaces:
+                if r.get("blocking"):
+                    out.append({"candidate": t.name, "round": t.round, "parameter": r["parameter"],
+                                "before": r["before"], "after": r["after"], "correlation": r["correlation"],
+                                "test_nrmse_before": t.test_before, "test_nrmse_after": t.test_after})
+    return out
+
+
 def verdict(D, effects, before, after) -> str:
     tail = (f" Unexplained: {D.unexplained:.1f}× the noise floor (the library cannot explain the rest)."
             if D.unexplained else "")
+    pairs = sorted({(r["candidate"], r["parameter"]) for r in not_separable(D)})
+    if pairs:
+        tail += " Not separable on this record: " + ", ".join(f"{c} vs the fitted {p}" for c, p in pairs) + \
+                " (either explains the data; the earlier physics is kept)."
     if not effects:
         if D.unexplained:
             return "No candidate effect lowers the held-out error beyond the noise: nothing is named." + tail

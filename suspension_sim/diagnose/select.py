@@ -95,6 +95,8 @@ def incoherent_noise(resid: np.ndarray, inputs: np.ndarray | None = None, nper: 
     return out
 
 
+NOT_SEPARABLE = "not separable on this record"
+RHO_SEPARABLE = 0.95  # two parameters whose estimates correlate more than this are not separable (collinear)
 LONG = 30000  # a training part longer than this (samples) is screened on part of it
 
 
@@ -126,6 +128,7 @@ class Trial:
     z: float = np.nan
     kept: bool = False
     seconds: float = 0.0
+    replaces: list = field(default_factory=list)  # earlier fitted physics this candidate drove to zero (_replaced)
 
     def as_dict(self):
         return {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in self.__dict__.items()}
@@ -342,20 +345,62 @@ class Selector:
                 groups.setdefault(key, []).append(
                     (n, not (abs(fr.params[n] - ref) > 2.0 * fr.std.get(n, np.inf))))
         zero = [n for members in groups.values() if all(z for _, z in members) for n, _ in members]
+        # a replacement: earlier fitted physics driven to zero by the newcomer (both kept only when separable)
+        tr.replaces = self._replaced(cur_screen, fr, [e if isinstance(e, str) else e[0] for e in size_names])
+        unsep = [r for r in tr.replaces if not (r["separable"] and z > self.z_min)]
+        for r in unsep:
+            r["blocking"] = True
         # at the floor (xb = 0) there is nothing above the noise left to explain: "removes 10 % of the error
         # above the floor" must not hold trivially (0 <= 0), or any freed parameter that soaks up a little
         # model error (a wheel mass 0.4 % light) passes on the plain 5 % drop
         at_floor = not xb > 0
         signif = z > self.z_min or xa <= 0.5 * xb
-        tr.kept = bool(tr.d_bic < 0 and signif and xa <= (1 - self.min_excess_drop) * xb and not at_floor
-                       and Ea <= (1 - self.min_rel_drop) * Eb and not worse and not zero)
+        ok = bool(tr.d_bic < 0 and signif and xa <= (1 - self.min_excess_drop) * xb and not at_floor
+                  and Ea <= (1 - self.min_rel_drop) * Eb and not worse and not zero)
+        tr.kept = ok and not unsep
         if at_floor and tr.d_bic < 0 and Ea < Eb:
             tr.reason = f"rejected: the held-out error ({Eb:.4g}) is already at the noise floor"
         if worse:
             tr.reason = f"rejected: held-out error worse beyond the noise on {', '.join(worse)}"
         elif zero:
             tr.reason = f"rejected: size indistinguishable from zero ({', '.join(zero)})"
+        elif ok and unsep:
+            tr.reason = f"rejected: {NOT_SEPARABLE}: " + "; ".join(
+                f"{tr.name} takes the place of {r['parameter']} ({r['before']:.4g} → {r['after']:.4g}, "
+                f"correlation {r['correlation']:.3f})" for r in unsep)
         return e_new
+
+    def _replaced(self, cur: FitResult, fr: FitResult, new_sizes: list) -> list:
+        """Earlier fitted physics that a candidate's fit ``fr`` drives to zero: every physical parameter of the
+        current model (a vehicle parameter, or the size of an effect already named) that was distinguishable
+        from zero (beyond 2 standard errors) and is no longer (within 2 standard errors of zero, or pushed
+        onto a bound of its band that it was not on).  Each comes with the largest correlation of its estimate
+        with the candidate's sizes in the joint fit (Gauss–Newton covariance): the pair is *separable* only
+        when that correlation is below ``RHO_SEPARABLE``.  (EMPS: quadratic damping took the place of the
+        viscous friction, 200 → 0.016 N·s/m, over a record whose rates make v and v|v| nearly collinear.)"""
+        from .model import vehicle_params
+
+        veh = set(vehicle_params(self.rec.kind))
+        bounds = {f.name: (f.lo, f.hi) for f in fr.spec.free}
+        out = []
+        for f in cur.spec.free:
+            n = f.name
+            if not (f.size or n in veh) or n not in fr.P or n in new_sizes:
+                continue
+            v0, s0 = float(cur.P[n]), float(cur.std.get(n, np.nan))
+            if not abs(v0) > 2.0 * s0:
+                continue  # not established before: nothing to replace
+            v1, s1 = float(fr.P[n]), float(fr.std.get(n, np.nan))
+            lo, hi = bounds.get(n, (-np.inf, np.inf))
+            tol = 0.01 * abs(v0)
+            on_bound = lambda v: (np.isfinite(lo) and v - lo <= tol) or (np.isfinite(hi) and hi - v <= tol)  # noqa: E731
+            if abs(v1) > 2.0 * s1 and not (on_bound(v1) and not on_bound(v0)):
+                continue
+            rho = [abs(fr.correlation(n, m)) for m in new_sizes if m in fr.P]
+            rho = max([r for r in rho if np.isfinite(r)], default=np.nan)
+            out.append({"parameter": n, "before": v0, "after": v1, "std_after": s1, "correlation": float(rho),
+                        "separable": bool(rho < RHO_SEPARABLE)})
+        return out
 
     def _polish(self, spec_c: ModelSpec, fr: FitResult, a: int, bs: int, b: int) -> FitResult:
         """Refit a kept candidate from its own optimum (longer, and on the whole training part when it was
