@@ -38,12 +38,21 @@ def test_two_dof_static_loads_and_actuator_polarity():
     assert abs(late.travel_secondary.mean()) < 0.1 * 100 / 31500
 
 
+def _sine_only_passive_and_adaptive(raw):
+    raw["sim"].update(duration=8.0)
+    raw["variants"] = {k: raw["variants"][k] for k in ("passive", "adaptive")}
+
+
 @pytest.mark.parametrize("name,edit", [
     ("thesis_ch6_bump", None),
-    ("thesis_ch6_sine", lambda raw: raw["sim"].update(duration=8.0)),
+    ("thesis_ch6_sine", _sine_only_passive_and_adaptive),
     ("thesis_ch6_random", lambda raw: raw["sim"].update(duration=8.0)),
 ])
 def test_adaptive_tracks_both_reference_rattle_spaces(request, name, edit):
+    """The MDOF law follows both reference rattle spaces better than the passive car (the baseline that fails).
+    This is a property of the law's structure, not of its adaptation: with α = β = 0 (nominal gains) the bump and
+    sine runs pass it too (page, Ch. 6 table); the adaptation claim is tested through the drifts in
+    test_sine_adaptation_holds_the_tracking_through_the_mode_i_drifts, where the non-adaptive law fails."""
     out = run_variants(request.config.rootpath, name, edit)
     ad, pa = out["adaptive"], out["passive"]
     for k, col in enumerate(("travel_secondary", "travel_primary")):
@@ -58,7 +67,7 @@ def test_sine_adaptation_holds_the_tracking_through_the_mode_i_drifts(request):
     law's secondary rattle-space error does not grow, while with adaptation off (α = β = 0, the baseline) it
     grows by more than 20 %, and the passive car's error is larger still."""
     sc = parse_scenario(read_yaml(request.config.rootpath / "scenarios" / "thesis_ch6_sine.yaml"))
-    runs = dict(sc.expand())
+    runs = {k: v for k, v in sc.expand() if k in ("passive", "adaptive")}
     runs["nonadaptive"] = runs["adaptive"].model_copy(deep=True)
     runs["nonadaptive"].controller.params.update({"alpha": 0.0, "beta": 0.0})
     ts = {k: Simulation([s]).run()[0].ts for k, s in runs.items()}
@@ -121,3 +130,25 @@ def test_structure_preserving_law_gives_the_reference_acceleration(request):
     acc_st, e_st, ref = res["adaptive_structured"]
     assert acc_st < 1.5 * ref and res["adaptive"][0] > 5 * ref
     assert e_st < 0.8 * res["nonadaptive"][1]
+
+
+def test_adaptation_from_a_wrong_design_improves_the_following(request):
+    """Adaptation exercised from a stated wrong start (ours; the thesis gives no initial gains): the controller's
+    nominal K_s −30 %, K_p +30 %, C_s +30 %, C0_p −30 % on the sine rig without drifts (variants wrong_design*).
+    Both rattle-space errors (to the run's own reference) fall by more than 15 % from 1–4 s to 14–24 s (measured
+    2.63 → 2.01, 2.87 → 2.32 mm) and end below 0.7× the same wrong design with adaptation off, which does not
+    improve (3.76 → 3.67, 3.80 → 3.72 mm: the baseline fails)."""
+    sc = parse_scenario(read_yaml(request.config.rootpath / "scenarios" / "thesis_ch6_sine.yaml"))
+    ts = {k: Simulation([s]).run()[0].ts for k, s in sc.expand() if k.startswith("wrong_design")}
+
+    def err(t, j, a, b):
+        m = ((t.t >= a) & (t.t < b)).to_numpy()
+        col = ("travel_secondary", "travel_primary")[j]
+        return float(np.sqrt(np.mean((t[col].to_numpy() - t[f"ctrl.ref_z.{j}"].to_numpy())[m] ** 2)))
+
+    for j in (0, 1):
+        ad0, ad1 = err(ts["wrong_design"], j, 1, 4), err(ts["wrong_design"], j, 14, 24)
+        na0, na1 = err(ts["wrong_design_nonadaptive"], j, 1, 4), err(ts["wrong_design_nonadaptive"], j, 14, 24)
+        assert ad1 < 0.85 * ad0, (j, ad0, ad1)
+        assert not na1 < 0.85 * na0, (j, na0, na1)  # the baseline fails the same bound
+        assert ad1 < 0.7 * na1, (j, ad1, na1)
