@@ -110,18 +110,23 @@ def test_dirt_road_without_loop_delay_follows_reference_better_than_passive(requ
 
 
 def test_stiffness_drift_mrac_holds_level_passive_sags(request):
-    """Parameter variations mode I, the stiffness drift of Fig. 2.7 (compressed: K −20 % as a ramp over 2–10 s,
-    no load step): the softer spring carries less of the static load (Eq. 4.1, K(t)·δ_st), so the passive rig
-    sinks (by less than the 12 cm of 0.2·M*·g/(0.8·K): the 1000 N friction holds it anywhere within ±F/K = ±0.2 m
-    of its spring equilibrium, the sines jiggle it down ≈ 4 cm); the discrete MRAC holds its level."""
+    """Parameter variations mode I (compressed: K −20 % as a ramp over 2–10 s, C_v −50 % at 8 s) with the load step
+    (+150 kg at 4–10 s): after the load is removed the softer spring carries less of the static load (Eq. 4.1,
+    K(t)·δ_st), and the passive rig stays down where the 1000 N friction catches it (anywhere within ±F/K = ±0.2 m
+    of its spring equilibrium: the exact stick-slip friction does not creep, so the drift alone, 0.2·M*·g = 490 N
+    < F, would not move it); the discrete MRAC holds its level (within the 2 cm of the page's claim: the level it
+    lands on is chaotic, see the Ch. 4 sensitivity table)."""
     def edit(raw):
-        raw["sim"]["duration"] = 16.0
+        raw["sim"]["duration"] = 20.0
         var = raw["variants"]["drift_passive"]["vehicle"]["variations"]
-        var[:] = [{"param": "spring_stiffness", "kind": "ramp", "mode": "scale", "times": [0, 2, 10],
-                   "values": [1.0, 1.0, 0.8]}]
+        var[:] = [{"param": "sprung_mass", "kind": "step", "mode": "add", "times": [4, 10], "values": [150, 0]},
+                  {"param": "spring_stiffness", "kind": "ramp", "mode": "scale", "times": [0, 2, 10],
+                   "values": [1.0, 1.0, 0.8]},
+                  {"param": "effects.quadratic_damping.c_v", "kind": "step", "mode": "scale", "times": [8],
+                   "values": [0.5]}]
         raw["variants"]["drift_mrac"]["vehicle"]["variations"] = var
 
     out = run_variants(request.config.rootpath, "thesis_ch4_load_step", edit, variants=("drift_passive", "drift_mrac"))
-    zm, zp = (np.mean(window(out[k], 12, 16, "body_z")) for k in ("drift_mrac", "drift_passive"))
-    assert abs(zm) < 0.01
-    assert zp < -0.03 and abs(zp) > 3 * abs(zm)
+    zm, zp = (np.mean(window(out[k], 12, 20, "body_z")) for k in ("drift_mrac", "drift_passive"))
+    assert abs(zm) < 0.02
+    assert zp < -0.05 and abs(zp) > 3 * abs(zm)

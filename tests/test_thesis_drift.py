@@ -33,6 +33,22 @@ def test_some_thesis_scenarios_drift():
     assert {drift.drift_kind(v) for _, _, v, _ in _drifting()} == {"stiffness", "damping"}
 
 
+def test_every_damper_drifts_where_the_springs_do():
+    """Mode I drifts every damper, linear or not: a thesis run whose springs drift and whose vehicle has a
+    velocity-squared damper effect also drifts that effect's coefficient (effects.quadratic_damping.c_v)."""
+    runs = {}
+    for stem, variant, var, _ in _drifting():
+        runs.setdefault((stem, variant), set()).add((drift.drift_kind(var), var.param.startswith("effects.")))
+    effect_dampers = {(s, v) for (s, v), kinds in runs.items() if ("damping", True) in kinds}
+    assert {s for s, _ in effect_dampers} >= {"thesis_ch4_load_step", "thesis_ch6_bump", "thesis_ch6_sine",
+                                              "thesis_ch7_road", "thesis_ch7_dirt"}
+    for f in sorted(SCEN.glob("thesis_*.yaml")):
+        for name, v in load_scenario(f).expand(str(f)):
+            has_damper_effect = any(e.type in drift.DAMPER_EFFECTS for e in v.vehicle.effects)
+            if has_damper_effect and ("stiffness", False) in runs.get((f.stem, name), set()):
+                assert (f.stem, name) in effect_dampers, (f.stem, name)
+
+
 @pytest.mark.parametrize("stem,variant,var,duration", _drifting(),
                          ids=lambda x: x if isinstance(x, str) else "")
 def test_every_drift_is_the_one_definition(stem, variant, var, duration):

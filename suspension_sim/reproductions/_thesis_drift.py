@@ -11,13 +11,16 @@ nowhere else (the scenario files carry them as ``vehicle.variations`` entries wi
 
 (The numbers are those thesis_ch3_adaptation.yaml chose for Ch. 3, kept for every chapter.)
 
-A velocity-squared damper is a plant *effect*, which ``vehicle.variations`` (MjModel fields) cannot reach;
-where a chapter's damper is one (Ch. 7, the Ch. 6 primary) only the linear dampers drift, and the page says so.
+A velocity-squared (orifice) damper is a plant *effect*; the damping drift reaches it through a variation of the
+effect's coefficient (``effects.quadratic_damping.c_v``, the same ``scale`` step), so every damper of a chapter
+drifts, linear or not (Ch. 4's rig, the Ch. 6 primary, Ch. 7's half car).
 """
 from __future__ import annotations
 
 STIFFNESS_DROP = 0.20
 DAMPING_DROP = 0.50
+# plant effects that are dampers, and the coefficient the damping drift scales
+DAMPER_EFFECTS = {"quadratic_damping": "c_v"}
 
 
 def stiffness_drift(duration: float) -> dict:
@@ -37,7 +40,14 @@ def drift_kind(v) -> str | None:
     own stiffness step)."""
     get = (lambda k: getattr(v, k)) if hasattr(v, "param") else v.get
     name = get("param")
-    if "tire" in name or get("mode") != "scale":
+    if get("mode") != "scale":
+        return None
+    if name.startswith("effects."):  # effects.<label>.<param>: only an effect damper's coefficient drifts
+        label, _, pname = name[len("effects."):].rpartition(".")
+        if DAMPER_EFFECTS.get(label.split("#")[0]) != pname:
+            return None
+        name = "damping"
+    if "tire" in name:
         return None
     if "stiffness" in name and get("kind") == "ramp":
         return "stiffness"
