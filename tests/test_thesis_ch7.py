@@ -72,9 +72,13 @@ def test_actuator_polarities(braking):
     assert brk.actuator_force_front.mean() == pytest.approx(500 * 7 * 1.25 / 3.0, rel=0.25)
 
 
-def _variants(root, name):
+def _variants(root, name, only=None, duration=None):
     sc = parse_scenario(read_yaml(root / "scenarios" / f"{name}.yaml"))
-    return {v: Simulation([s]).run()[0].ts for v, s in sc.expand()}
+    runs = {v: s for v, s in sc.expand() if only is None or v in only}
+    for s in runs.values():
+        if duration:
+            s.sim.duration = duration
+    return {v: Simulation([s]).run()[0].ts for v, s in runs.items()}
 
 
 def _err(ts, ref, col, t0, t1):
@@ -84,7 +88,7 @@ def _err(ts, ref, col, t0, t1):
 
 @pytest.fixture(scope="module")
 def road(request):
-    return _variants(request.config.rootpath, "thesis_ch7_road")
+    return _variants(request.config.rootpath, "thesis_ch7_road", only=("passive", "mimo_mrac", "mimo_fixed"))
 
 
 def test_road_excited_bounce_and_pitch_follow_the_reference(road):
@@ -104,6 +108,23 @@ def test_road_excited_bounce_and_pitch_follow_the_reference(road):
             for k in road}
     assert dive["passive"] > 4.0 and dive["mimo_mrac"] < 0.2 * dive["passive"]
     assert dive["mimo_fixed"] > 2 * dive["mimo_mrac"]
+
+
+def test_adaptation_from_a_wrong_design_within_4_s(request):
+    """Thesis: bounce and pitch adapt within the first 4 s from arbitrary initial parameters.  From a stated wrong
+    design (variant wrong_design, ours: nominal M_s +20 %, I −20 %, K0 −30 %, C0 +30 %; first 20 s, before the
+    manoeuvre and the drift's effect matter) the MRAC's bounce and pitch errors (to its own reference) at 4–20 s
+    are below half those of the same wrong design with adaptation off (measured 0.20 vs 0.87 mm, 0.019° vs 0.094°),
+    and already in 0–4 s below 0.6× the baseline's: the baseline fails both."""
+    ts = _variants(request.config.rootpath, "thesis_ch7_road", only=("wrong_design", "wrong_design_fixed"), duration=20.0)
+
+    def own(t, col, t0, t1):
+        return _err(t, t.assign(body_z=t["ctrl.ref_z"], pitch=t["ctrl.ref_pitch"]), col, t0, t1)
+
+    for col in ("body_z", "pitch"):
+        ad, off = ts["wrong_design"], ts["wrong_design_fixed"]
+        assert own(ad, col, 4, 20) < 0.5 * own(off, col, 4, 20), col
+        assert own(ad, col, 0, 4) < 0.6 * own(off, col, 0, 4), col
 
 
 def test_dirt_road_following_is_not_reproduced(request):
