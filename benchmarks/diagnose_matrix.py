@@ -39,6 +39,9 @@ def case(name, rng):
         return {name: {"c_reb": U(500, 1500), "c_comp": 0.0}}, {}, 0.01, 0.0, [name]
     if name == "bump_stop":
         return {name: {"gap": U(0.015, 0.025), "stiffness": U(5e4, 1.5e5)}}, {}, 0.01, 0.0, [name]
+    if name == "bump_stop_compression":  # a jounce bumper alone: no rebound stop
+        return ({"bump_stop": {"gap_compression": U(0.015, 0.025), "gap_extension": None, "stiffness": U(5e4, 1.5e5)}},
+                {}, 0.01, 0.0, ["bump_stop"])
     if name == "cubic_stiffness":
         return {name: {"k3": U(1.5e7, 5e7)}}, {}, 0.01, 0.0, [name]
     if name == "tire_liftoff":
@@ -61,7 +64,8 @@ def case(name, rng):
     raise KeyError(name)
 
 
-CASES = ["coulomb_friction", "quadratic_damping", "asymmetric_damping", "bump_stop", "cubic_stiffness",
+CASES = ["coulomb_friction", "quadratic_damping", "asymmetric_damping", "bump_stop", "bump_stop_compression",
+         "cubic_stiffness",
          "tire_liftoff", "actuator_delay", "actuator_lag", "hysteresis", "backlash", "parameter:sprung_mass", "none",
          "two:coulomb+cubic"]
 

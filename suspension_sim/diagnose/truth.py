@@ -74,12 +74,13 @@ def _suspension_extra(effects: dict, s, v, st):
             F += -p["c_v"] * v * abs(v)
         elif name == "asymmetric_damping":
             F += -(p.get("c_reb", 0.0) if v > 0 else p.get("c_comp", 0.0)) * v
-        elif name == "bump_stop":
-            g, k = p["gap"], p["stiffness"]
-            if s > g:
-                F += -k * (s - g)
-            elif s < -g:
-                F += k * (-g - s)
+        elif name == "bump_stop":  # gap_compression / gap_extension (None: no stop that side) default to gap
+            k = p["stiffness"]
+            gc, ge = p.get("gap_compression", p.get("gap")), p.get("gap_extension", p.get("gap"))
+            if ge is not None and s > ge:
+                F += -k * (s - ge)
+            elif gc is not None and s < -gc:
+                F += k * (-gc - s)
         elif name == "cubic_stiffness":
             F += -p["k3"] * s ** 3
         elif name == "hysteresis":
