@@ -64,20 +64,37 @@ def _cross_spectra(X: np.ndarray, nper: int):
     return np.einsum("kfi,kfj->fij", F, F.conj()) / len(F), len(F)
 
 
-def incoherent_noise(resid: np.ndarray, inputs: np.ndarray | None = None, nper: int = 256) -> list:
+MIN_SEGMENTS = 12  # Welch segments the conditioned spectra average at least (the (K − p)/K correction needs K ≫ p)
+
+
+def segment_length(n: int) -> int:
+    """Welch segment length for the conditioned spectra of ``n`` samples: the longest power of two (at least
+    256) that still gives :data:`MIN_SEGMENTS` half-overlapping segments.  Long segments resolve the slow
+    dynamics: with 256 samples at 1 kHz (3.9 Hz bins) a missing stop's error at the ~1 Hz body mode falls in
+    the lowest bins, where the per-segment mean removal and the window smear it, and read as unpredictable
+    (a quarter car's travel residual 13× its noise was taken for coloured noise, 16 % predictable; with 1024
+    samples 85 %), while noise stays unpredictable at any length."""
+    nper = 256
+    while 2 * n / (2 * nper) >= MIN_SEGMENTS + 1:
+        nper *= 2
+    return int(min(nper, n))
+
+
+def incoherent_noise(resid: np.ndarray, inputs: np.ndarray | None = None, nper: int | None = None) -> list:
     """Per residual channel: (std of the part of the residual that no linear filter of the inputs and of the
     other channels' residuals predicts, share of its power that they do predict).
 
     Sensor noise is independent between channels and of the inputs, whatever its colour.  A force missing
     from the model shows in every channel's residual through the same dynamics (and is driven by the
-    inputs), so it is predictable from them.  Per frequency, the conditioned spectrum
+    inputs), so it is predictable from them (spectra over segments of :func:`segment_length`).  Per
+    frequency, the conditioned spectrum
     S_ii − S_io·S_oo⁻¹·S_oi is what no linear filter of the others predicts; with K segments and p
     predictors its expectation for pure noise is (K − p)/K of the truth, which is corrected."""
     R = np.asarray(resid, float)
     cols = [R] + ([np.asarray(inputs, float).reshape(len(R), -1)] if inputs is not None and np.size(inputs) else [])
     X = np.column_stack(cols)
     X = X[:, [j for j in range(X.shape[1]) if j < R.shape[1] or np.std(X[:, j]) > 0]]
-    S, K = _cross_spectra(X, nper)
+    S, K = _cross_spectra(X, segment_length(len(X)) if nper is None else nper)
     out = []
     for i in range(R.shape[1]):
         o = [j for j in range(X.shape[1]) if j != i and np.std(X[:, j]) > 0]
