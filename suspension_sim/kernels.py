@@ -146,6 +146,15 @@ class KernelState:
         finally:
             self._kd_depth -= 1
 
+    def parameter_rows(self) -> np.ndarray:
+        """The kernel parameters ``p`` from the current parameters (a new array, not remembered; for a parameter
+        changed during a run)."""
+        self._kd_depth = getattr(self, "_kd_depth", 0) + 1
+        try:
+            return f64(self.kernel_data()[0])
+        finally:
+            self._kd_depth -= 1
+
     def reset_cars(self, cars) -> None:
         """Put the kernel state of the cars ``cars`` (indices) back to its initial value; other cars untouched."""
         cars = np.asarray(cars, dtype=np.intp).reshape(-1)

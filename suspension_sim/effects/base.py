@@ -111,7 +111,7 @@ class Effect(KernelState):
         so the next force of either loop uses the new value; a Python effect reads ``self.p`` itself."""
         setattr(self.p, name, value)
         if type(self).kernel is not None and getattr(self, "_kd", None) is not None:
-            self._kd[0][...] = np.asarray(self.kernel_data()[0], dtype=np.float64)
+            self._kd[0][...] = self.parameter_rows()
 
     def force(self, s: np.ndarray, v: np.ndarray, t: float, dt: float) -> np.ndarray:
         """The force of every selected corner of every car, (n_cars, n_sel): the kernel broadcast over the
