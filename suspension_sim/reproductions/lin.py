@@ -262,11 +262,16 @@ def _fig45(n):
         trav = {v: float(np.max(np.abs(res[v].ts.travel))) for v in res}
         th = res["adaptive"].ts["ctrl.theta_hat"].to_numpy()
         ratio = dev["adaptive"] / dev["nonadaptive"]
+        known_rms = rms(k.body_acc.to_numpy()[w])
+        # "close to known": the adaptive run's deviation below half the known run's own RMS in the window;
+        # closer than the non-adaptive run but not that close is "partly"
         claims = [
             Claim("adaptive (dashed) vs non-adaptive (dotted), deviation of body acc from the known run, 0.5–0.8 s",
                   "adaptive close to known, non-adaptive deviates",
-                  f"{dev['adaptive']:.1f} vs {dev['nonadaptive']:.1f} m/s² (ratio {ratio:.2f})",
-                  "reproduced" if ratio < 0.6 else ("partly" if ratio < 1 else "not")),
+                  f"{dev['adaptive']:.1f} vs {dev['nonadaptive']:.1f} m/s² (ratio {ratio:.2f}); the known run's "
+                  f"RMS {known_rms:.1f} m/s²",
+                  "reproduced" if ratio < 0.6 and dev["adaptive"] < 0.5 * known_rms
+                  else ("partly" if ratio < 1 else "not")),
             Claim("suspension travel", "inside ±8 cm", ", ".join(f"{v} {trav[v] * 100:.2f} cm" for v in res),
                   "reproduced" if max(trav.values()) < 0.08 else "not"),
             Claim("ρθ̂ (Fig. 4: 1361 → ≈ 1512.5; Fig. 5: starts at 1512.5)",
