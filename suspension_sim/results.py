@@ -286,31 +286,41 @@ def compute_metrics_many(t, channels: dict, suffixes, infos: list, stop_gaps: li
 
 def _contiguous(channels: dict, needed: list) -> dict:
     """``channels`` with the ``needed`` ones as arrays with C-contiguous rows (one row per car: numpy then sums
-    every car's samples pairwise in the same order as one car's 1-D array).  Channels logged as ``L[:, :, j]``
-    views of one ``(n_cars, n_log, n_channels)`` buffer are gathered together, a few cars at a time (a
-    strided copy per channel would read the whole buffer from memory once per channel)."""
+    every car's samples pairwise in the same order as one car's 1-D array).  Channels logged as views of one
+    3-D buffer, ``L[:, :, j]`` of ``(n_cars, n_log, n_channels)`` or ``L[:, :, j].T`` of ``(n_log, n_cars,
+    n_channels)`` (the compiled loop's), are gathered together, a block of the buffer at a time (a strided copy
+    per channel would read the whole buffer from memory once per channel)."""
     out = dict(channels)
     groups: dict = {}
     for name in needed:
         a = channels[name]
         if a.flags.c_contiguous:
             continue
-        b, j = a.base, None
-        if isinstance(b, np.ndarray) and b.ndim == 3 and a.ndim == 2 and b.dtype == a.dtype \
-                and b.shape[:2] == a.shape and b.strides[:2] == a.strides and b.strides[2] > 0:
+        b, j, kind = a.base, None, None
+        if isinstance(b, np.ndarray) and b.ndim == 3 and a.ndim == 2 and b.dtype == a.dtype and b.strides[2] > 0:
+            if b.shape[:2] == a.shape and b.strides[:2] == a.strides:
+                kind = "car"  # (car, log step, channel)
+            elif b.shape[1::-1] == a.shape and b.strides[1::-1] == a.strides:
+                kind = "step"  # (log step, car, channel)
+        if kind is not None:
             off = a.__array_interface__["data"][0] - b.__array_interface__["data"][0]
             if off % b.strides[2] == 0 and 0 <= off // b.strides[2] < b.shape[2]:
                 j = off // b.strides[2]
         if j is None:
             out[name] = np.ascontiguousarray(a)
         else:
-            groups.setdefault(id(b), (b, []))[1].append((name, int(j)))
-    for b, items in groups.values():
+            groups.setdefault((id(b), kind), (b, kind, []))[2].append((name, int(j)))
+    for b, kind, items in groups.values():
         idx = [j for _, j in items]
-        g = np.empty((len(idx), b.shape[0], b.shape[1]), dtype=b.dtype)
         bs = max(1, (1 << 20) // max(1, b.shape[1] * b.shape[2] * b.itemsize))  # ~1 MB of the buffer per block
-        for c0 in range(0, b.shape[0], bs):
-            g[:, c0:c0 + bs] = np.take(b[c0:c0 + bs], idx, axis=2).transpose(2, 0, 1)
+        if kind == "car":
+            g = np.empty((len(idx), b.shape[0], b.shape[1]), dtype=b.dtype)
+            for c0 in range(0, b.shape[0], bs):
+                g[:, c0:c0 + bs] = np.take(b[c0:c0 + bs], idx, axis=2).transpose(2, 0, 1)
+        else:
+            g = np.empty((len(idx), b.shape[1], b.shape[0]), dtype=b.dtype)
+            for r0 in range(0, b.shape[0], bs):
+                g[:, :, r0:r0 + bs] = np.take(b[r0:r0 + bs], idx, axis=2).transpose(2, 1, 0)
         for k, (name, _) in enumerate(items):
             out[name] = g[k]
     return out

@@ -220,14 +220,20 @@ def test_ensemble_versions_equal_per_car_metrics(n_log, fs, sfx):
     gaps = [{s: float(rng.uniform(0.001, 1.0)) for s in sfx} for _ in range(n)]
     infos = [{"suffixes": list(sfx), "static_tire_force": static[i], "stop_gap": gaps[i],
               "stop_gap_sides": ({sfx[0]: [0.5, 2.0]} if i % 2 else {})} for i in range(n)]
-    # logged as a compiled loop may: L[:, :, j] views of one (n_cars, n_log, n_channels) buffer (two buffers
-    # here), one channel transposed ((n_log, n_cars) memory), the rest contiguous
+    # logged as a compiled loop may: L[:, :, j] views of one (n_cars, n_log, n_channels) buffer, L[:, :, j].T of
+    # one (n_log, n_cars, n_channels) buffer (the compiled loop's), one channel transposed ((n_log, n_cars)
+    # memory), the rest contiguous
     names = [k for k in ch if k != "body_acc"]
-    buf = np.empty((n, n_log, len(names) + 1))
+    half = len(names) // 2
+    buf = np.empty((n, n_log, half + 1))
+    buf_s = np.empty((n_log, n, len(names) - half + 2))  # step-major, gathered in blocks of rows
     buf2 = np.empty((n, n_log, 3))
-    for j, k in enumerate(names):
+    for j, k in enumerate(names[:half]):
         buf[:, :, j + 1] = ch[k]
         ch[k] = buf[:, :, j + 1]
+    for j, k in enumerate(names[half:]):
+        buf_s[:, :, j + 1] = ch[k].T
+        ch[k] = buf_s[:, :, j + 1].T
     buf2[:, :, 2] = ch["body_acc"]
     ch["body_acc"] = buf2[:, :, 2]
     ch["travel" + sfx[-1]] = np.ascontiguousarray(ch["travel" + sfx[-1]].T).T

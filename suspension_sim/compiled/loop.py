@@ -35,7 +35,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-TEMPLATE_VERSION = 17
+TEMPLATE_VERSION = 18
 
 # PlantState fields a compiled sensor may read (Sensor.kernel_field), by code
 FIELDS = ("body_pos", "body_vel", "body_acc", "corner_body_pos", "corner_body_vel", "corner_body_acc",
@@ -136,7 +136,7 @@ def _sensor_code(sc: int, field: int, simple: bool) -> str:
     sensor without delay, hold, noise or quantisation is read straight into y (its value + bias, as the
     Python pipeline computes it); else through the ring buffer of the pipeline."""
     val = f"field_value({field}, sens_cols[{sc}, q], sens_aux[{sc}], {_FIELD_ARGS})"
-    ind = " " * 20
+    ind = " " * 16
     if simple:
         return (f"{ind}for q in range(sens_k[{sc}]):\n"
                 f"{ind}    y[i, sens_off[{sc}] + q] = {val} + sens_bias[{sc}]\n")
@@ -174,13 +174,15 @@ def generate_source(effects, actuator, controller, sensors=()) -> str:
         sig_logs.append(
             f"                for q in range(e{k}_sigj.shape[0]):\n"
             f"                    for jj in range(e{k}_lc.shape[1]):\n"
-            f"                        L[i, jl, e{k}_lc[q, jj]] = e{k}_st[i, jj, e{k}_sigj[q]]\n")
-    sensor_block = "".join(_sensor_code(sc, f, simple) for sc, (f, simple) in enumerate(sensors)) or \
-        "                    pass\n"
-    ctrl_block = ("                    ctrl_kernel(t, row(y, i), row(c_p, i), row(c_st, i), row(cmd, i))\n" if controller is not None
-                  else "                    pass\n")
+            f"                        Lr[e{k}_lc[q, jj]] = e{k}_st[i, jj, e{k}_sigj[q]]\n")
+    sensor_block = "".join(_sensor_code(sc, f, simple) for sc, (f, simple) in enumerate(sensors))
+    ctrl_block = ("                ctrl_kernel(t, row(y, i), row(c_p, i), row(c_st, i), row(cmd, i))\n" if controller is not None
+                  else "")
+    acc_read = any(f in (FIELDS.index("body_acc"), FIELDS.index("corner_body_acc"), FIELDS.index("wheel_acc"))
+                   for f, _ in sensors)
     body = f'''
 PRE = {PRE}
+ACC_READ = {acc_read}  # a sensor reads an acceleration
 
 
 @njit(cache=True, inline="always")
@@ -243,11 +245,17 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
     k (>= 0) at a control instant that Python must handle (hybrid loop, after mj_step1 of step k: call again
     with resume=1 from k), -(k + 1) when the state check at control instant k fails, or PRE + k before
     control instant k when var_hook is set (Python applies the time-varying parameters, then calls again with
-    resume=2 from k).  Log row j (step j * log_every) goes to L[:, j - log0]: L holds log rows log0 ..
-    log0 + L.shape[1] - 1 (one chunk of the log; the caller stops at its end and flushes it)."""
+    resume=2 from k).  Log row j (step j * log_every) goes to L[j - log0]: L (rows, cars, channels) holds log
+    rows log0 .. log0 + L.shape[0] - 1 (one chunk of the log; the caller stops at its end and flushes it).
+
+    Between mj_step1 and mj_step2 one pass over the cars does, car by car, what the Python loop does for
+    all cars in turn (sensors and controller at a control instant, the trapezoidal coupling, actuator and
+    effect forces, the log, the actuator's advance): every step of a car reads only that car's data, so the
+    order across cars does not change a number, and each car's data is fetched once per step instead of
+    once per stage."""
     n, nc = road_q.shape
     nb = body_q.shape[1]
-    n_log = L.shape[1]
+    n_log = L.shape[0]
     k = k0
     skip = resume == 1
     pre_done = resume == 2
@@ -257,6 +265,8 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
         if var_hook and not skip and not pre_done and k % sub == 0:
             return PRE + k
         pre_done = False
+        ctrl_now = False
+        kc = 0
         if not skip:
             if has_man:  # the manoeuvre's loads of this step (loop.steps: zero, then AppliedManeuver.apply)
                 for q in range(qfrc.shape[0]):
@@ -304,13 +314,19 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                     sens_tmp[sc, 1] = old % nr
                     sens_tmp[sc, 2] = 1 if kc % sens_hold[sc] == 0 else 0
                     sens_tmp[sc, 3] = noise_off[sc] + (kc // sens_hold[sc]) * sens_k[sc]
-                for i in range(n):
-{sensor_block}                    for c in range(nc):
-                        cmd[i, c] = 0.0
-{ctrl_block}                kc_arr[0] = kc + 1
+                ctrl_now = True
         skip = False
-        if trap:  # body-wheel damper coupling from the last step's velocity change (loop.trapezoidal_coupling)
-            for i in range(n):
+        log_now = k % log_every == 0
+        jl = k // log_every - log0
+        logw = log_now and 0 <= jl < n_log
+        # the acceleration of this step is read by the log, by sensors at the next control instant (a sensor
+        # of an acceleration, or Python's sensors in the hybrid loop) and after the last step (sim.end_forces)
+        need_acc = log_now or k == n_steps - 1 or ((k + 1) % sub == 0 and (ACC_READ or not full_control))
+        for i in range(n):
+            if ctrl_now:
+{sensor_block}                for c in range(nc):
+                    cmd[i, c] = 0.0
+{ctrl_block}            if trap:  # body-wheel damper coupling from the last step's velocity change (loop.trapezoidal_coupling)
                 for b in range(nb):
                     fb = 0.0
                     for c in range(nc):
@@ -331,8 +347,7 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                     v_prev[body_v[i, b]] = qvel[body_v[i, b]]
                 for c in range(nc):
                     v_prev[wheel_v[i, c]] = qvel[wheel_v[i, c]]
-        # forces from the state at the start of the step
-        for i in range(n):
+            # forces from the state at the start of the step
             for c in range(nc):
                 s = ten_len[susp_t[i, c]]
                 v = ten_vel[susp_t[i, c]]
@@ -356,45 +371,54 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                         ctrl[eff_t[i, c]] = ft
                 if trap:  # the explicit half of the linear dampers (loop.steps)
                     ctrl[eff_s[i, c]] = F_eff[i, c] + (-half_cs[i, c] * v)
-                    ctrl[eff_t[i, c]] = (F_teff[i, c] + tire_ct[i, c] * road_zd[jr, i, c]) + \
+                    ctrl[eff_t[i, c]] = (F_teff[i, c] + tire_ct[i, c] * road_zd[jr, i, c]) + \\
                         (-half_ct[i, c] * ten_vel[tire_t[i, c]])
                 elif not road_dof:
                     ctrl[eff_t[i, c]] = F_teff[i, c] + tire_ct[i, c] * road_zd[jr, i, c]
                 ctrl[act[i, c]] = Fa
-        log_now = k % log_every == 0
-        jl = k // log_every - log0
-        if log_now and 0 <= jl < n_log:
-            for i in range(n):
+            if logw:
+                Lr = row(row(L, jl), i)
                 for b in range(nb):
                     if LC[0, b] >= 0:
-                        L[i, jl, LC[0, b]] = qpos[body_q[i, b]]
-                        L[i, jl, LC[1, b]] = qvel[body_v[i, b]]
+                        Lr[LC[0, b]] = qpos[body_q[i, b]]
+                        Lr[LC[1, b]] = qvel[body_v[i, b]]
                 for c in range(nc):
-                    L[i, jl, LC[3, c]] = ten_len[susp_t[i, c]]
-                    L[i, jl, LC[4, c]] = ten_vel[susp_t[i, c]]
+                    Lr[LC[3, c]] = ten_len[susp_t[i, c]]
+                    Lr[LC[4, c]] = ten_vel[susp_t[i, c]]
                     if has_tire:
-                        L[i, jl, LC[5, c]] = qpos[wheel_q[i, c]]
-                        L[i, jl, LC[6, c]] = qvel[wheel_v[i, c]]
+                        Lr[LC[5, c]] = qpos[wheel_q[i, c]]
+                        Lr[LC[6, c]] = qvel[wheel_v[i, c]]
                         tl = ten_len[tire_t[i, c]]
                         tv = ten_vel[tire_t[i, c]]
                         if not road_dof:
                             tl = tl - road_z[jr, i, c]
                             tv = tv - road_zd[jr, i, c]
-                        L[i, jl, LC[7, c]] = -kt[i, c] * tl - ct[i, c] * tv + F_teff[i, c]
-                        L[i, jl, LC[8, c]] = F_teff[i, c]
-                    L[i, jl, LC[9, c]] = road_z[jr, i, c]
-                    L[i, jl, LC[10, c]] = road_zd[jr, i, c]
-                    L[i, jl, LC[11, c]] = cmd[i, c]
-                    L[i, jl, LC[12, c]] = F_act[i, c]
-                    L[i, jl, LC[13, c]] = F_eff[i, c]
+                        Lr[LC[7, c]] = -kt[i, c] * tl - ct[i, c] * tv + F_teff[i, c]
+                        Lr[LC[8, c]] = F_teff[i, c]
+                    Lr[LC[9, c]] = road_z[jr, i, c]
+                    Lr[LC[10, c]] = road_zd[jr, i, c]
+                    Lr[LC[11, c]] = cmd[i, c]
+                    Lr[LC[12, c]] = F_act[i, c]
+                    Lr[LC[13, c]] = F_eff[i, c]
                 for q in range(act_j.shape[0]):
                     for c in range(nc):
-                        L[i, jl, lc_act[q, c]] = a_st[i, c, act_j[q]]
+                        Lr[lc_act[q, c]] = a_st[i, c, act_j[q]]
                 for q in range(lc_y.shape[0]):
-                    L[i, jl, lc_y[q]] = y[i, q]
+                    Lr[lc_y[q]] = y[i, q]
                 for q in range(lc_ctrl.shape[0]):
-                    L[i, jl, lc_ctrl[q]] = c_st[i, ctrl_j[q]]
-{''.join(sig_logs)}        need_acc = log_now or (k + 1) % sub == 0
+                    Lr[lc_ctrl[q]] = c_st[i, ctrl_j[q]]
+{''.join(sig_logs)}            if need_acc and not rk4:
+                for b in range(nb):
+                    v_before[body_v[i, b]] = qvel[body_v[i, b]]
+                if has_tire:
+                    for c in range(nc):
+                        v_before[wheel_v[i, c]] = qvel[wheel_v[i, c]]
+            # the actuator's state for the next step (MuJoCo's step does not read it: advanced before the step
+            # as after it)
+            for c in range(nc):
+                act_advance(cmd[i, c], sv[i, c, 0], sv[i, c, 1], t, dt, row(row(a_p, i), c), row(row(a_st, i), c))
+        if ctrl_now:
+            kc_arr[0] = kc + 1
         if rk4:
             if need_acc:  # the acceleration at the step start, with this step's forces
                 mj_forwardSkip(m_addr, d_addr, 2, 1)
@@ -405,33 +429,24 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                         for c in range(nc):
                             acc[wheel_v[i, c]] = qacc[wheel_v[i, c]]
             mj_step(m_addr, d_addr)
-        elif need_acc:
-            for i in range(n):
-                for b in range(nb):
-                    v_before[body_v[i, b]] = qvel[body_v[i, b]]
-                if has_tire:
-                    for c in range(nc):
-                        v_before[wheel_v[i, c]] = qvel[wheel_v[i, c]]
-        if not rk4:
+        else:
             mj_step2(m_addr, d_addr)
-        if need_acc and not rk4:
+        if need_acc:
             for i in range(n):
-                for b in range(nb):
-                    acc[body_v[i, b]] = (qvel[body_v[i, b]] - v_before[body_v[i, b]]) / dt
-                if has_tire:
-                    for c in range(nc):
-                        acc[wheel_v[i, c]] = (qvel[wheel_v[i, c]] - v_before[wheel_v[i, c]]) / dt
-        if log_now and 0 <= jl < n_log:
-            for i in range(n):
-                for b in range(nb):
-                    if LC[2, b] >= 0:
-                        L[i, jl, LC[2, b]] = acc[body_v[i, b]]
-                if has_tire:
-                    for c in range(nc):
-                        L[i, jl, LC[14, c]] = acc[wheel_v[i, c]]
-        for i in range(n):
-            for c in range(nc):
-                act_advance(cmd[i, c], sv[i, c, 0], sv[i, c, 1], t, dt, row(row(a_p, i), c), row(row(a_st, i), c))
+                if not rk4:
+                    for b in range(nb):
+                        acc[body_v[i, b]] = (qvel[body_v[i, b]] - v_before[body_v[i, b]]) / dt
+                    if has_tire:
+                        for c in range(nc):
+                            acc[wheel_v[i, c]] = (qvel[wheel_v[i, c]] - v_before[wheel_v[i, c]]) / dt
+                if logw:
+                    Lr = row(row(L, jl), i)
+                    for b in range(nb):
+                        if LC[2, b] >= 0:
+                            Lr[LC[2, b]] = acc[body_v[i, b]]
+                    if has_tire:
+                        for c in range(nc):
+                            Lr[LC[14, c]] = acc[wheel_v[i, c]]
         k += 1
     return k1
 '''
@@ -716,10 +731,11 @@ def run_steps(sim, mode: str, progress=None, logger=None):
         layout.add_rest(sim, act_names, reading_widths, ctrl_widths, eff_sigs)
         if getattr(sim, "log_channels", "all") == "metrics":
             layout.keep_only(metric_channels(P.suffixes))
-        # car-major (car, log step, channel): a log step writes one contiguous row per car (channel-major
-        # writes touch a cache line per channel: ~0.2 us per car-step with 30 channels); the metrics read
-        # the strided channel views.  Every entry is written by the loop.
-        L = np.empty((n, cap, len(layout.names)))
+        # step-major (log step, car, channel): a log step writes one contiguous block for all cars, car after
+        # car (car-major rows, one per car a buffer apart, cost a cache miss per car and log step; channel-major
+        # a cache line per channel); the channels are (car, log step) views, which the metrics gather into
+        # contiguous rows (results._contiguous).  Every entry is written by the loop.
+        L = np.empty((cap, n, len(layout.names)))
         eff_full = []
         for args, lc in zip(eff_args, layout.eff_lc):
             eff_full += args + [lc]
@@ -728,7 +744,7 @@ def run_steps(sim, mode: str, progress=None, logger=None):
     if full:
         L, eff_full = make_log()
     else:  # the layout needs the first readings and controller signals: built at the first control instant
-        L = np.zeros((n, 0, 0))
+        L = np.zeros((0, n, 0))
         eff_full = []
         for args in eff_args:
             eff_full += args + [np.zeros((len(args[3]), int(args[2].max()) + 1 if args[2].size else 0), np.int64)]
@@ -774,7 +790,7 @@ def run_steps(sim, mode: str, progress=None, logger=None):
     logger.t[:] = (np.arange(logger.base, logger.base + cap) * sim.log_every) * sim.dt
 
     def attach_log():
-        logger.ch = {name: L[:, :, j] for j, name in enumerate(layout.names) if name != "__scratch__"}
+        logger.ch = {name: L[:, :, j].T for j, name in enumerate(layout.names) if name != "__scratch__"}
 
     if full:
         attach_log()
