@@ -108,6 +108,18 @@ class SpeedProfile:
             return np.interp(np.clip(np.asarray(t, dtype=float), 0.0, kt[-1]), kt, kv)
         return np.interp(t, self.t, self.v)
 
+    def time_at_rate(self, x, t_now):
+        """d/dt of :meth:`time_at` (x − x(t_now) held, x advancing with the front axle): v(t_now)/v(time_at),
+        1 where time_at returns t_now (no motion), 0 where the front axle stood still at x."""
+        t_now = np.asarray(t_now, dtype=float)
+        if self.const is not None:
+            return np.ones_like(t_now)
+        if (self.knots is not None and not self.knots[2][-1] > self.knots[2][0]) or \
+                (self.knots is None and not self.x[-1] > self.x[0]):
+            return np.ones_like(t_now)
+        vc = self.speed(self.time_at(x, t_now))
+        return np.where(vc > 1e-9, self.speed(t_now) / np.where(vc > 1e-9, vc, 1.0), 0.0)
+
     def time_at(self, x, t_now):
         """Time at which the front axle was at distance x (x may be behind the start)."""
         if self.const is not None:
@@ -370,15 +382,22 @@ class System:
         """Road height and rate under each wheel for physics steps k0..k1-1: arrays (n, k1-k0, nc)."""
         n, nc = self.plant.n, self.plant.nc
         L = k1 - k0
-        t = (np.arange(k0 - 1, k1 + 1)) * self.dt  # one extra sample each side for central differences
+        t = (np.arange(k0 - 1, k1 + 1)) * self.dt  # one extra sample each side (RK4's second differences)
         z = np.empty((n, L + 2, nc))
+        zd = np.empty((n, L, nc))
         for i, (road, sp) in enumerate(zip(self.roads, self.speeds)):
-            x = sp.distance(t)
+            x, v = sp.distance(t), sp.speed(t[1:-1])
             for c in range(nc):
                 xc = x - self.corner_back[i, c]
-                tc = t if self.corner_back[i, c] == 0 else sp.time_at(xc, t)
+                if self.corner_back[i, c] == 0:
+                    tc, tc_rate = t, 1.0
+                else:
+                    tc = sp.time_at(xc, t)
+                    tc_rate = sp.time_at_rate(xc[1:-1], t[1:-1])
                 z[i, :, c] = road.height(tc, xc, self.geom.tracks[c])
-        zd = (z[:, 2:, :] - z[:, :-2, :]) / (2 * self.dt)
+                # the exact time derivative of the height this wheel sees (the road's own derivative law),
+                # not a difference over ±dt (whose O(dt²) error on a spline road moved results with the step)
+                zd[i, :, c] = road.rate(tc[1:-1], xc[1:-1], self.geom.tracks[c], tc_rate, v)
         if self.rk4:  # RK4 also prescribes the plates' acceleration within a step
             return z[:, 1:-1, :], zd, (z[:, 2:, :] - 2 * z[:, 1:-1, :] + z[:, :-2, :]) / self.dt ** 2
         return z[:, 1:-1, :], zd

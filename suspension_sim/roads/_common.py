@@ -28,6 +28,16 @@ def cosine_window(s, length: float) -> np.ndarray:
     return 0.5 * (1.0 - np.cos(np.pi * u))
 
 
+def cosine_window_rate(s, length: float) -> np.ndarray:
+    """d/ds of :func:`cosine_window`: ½(π/length)·sin(π s/length) for 0 < s < length, 0 elsewhere (a step's
+    derivative, an impulse, is left out: 0 everywhere for length = 0)."""
+    s = np.asarray(s, dtype=float)
+    if length <= 0:
+        return np.zeros_like(s)
+    inside = (s > 0) & (s < length)
+    return np.where(inside, 0.5 * np.pi / length * np.sin(np.pi * np.clip(s / length, 0.0, 1.0)), 0.0)
+
+
 TrackSel = Literal["both", "left", "right"]
 
 
@@ -70,23 +80,37 @@ class PulseRoad(Road):
     def shape(u: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
 
+    @staticmethod
+    def shape_rate(u: np.ndarray) -> np.ndarray:  # pragma: no cover - abstract
+        """d shape/du on u ∈ [0, 1]."""
+        raise NotImplementedError
+
     @property
     def spatial(self) -> bool:
         return self.p.length is not None
 
-    def height(self, t, x, track=0):
+    def _sum(self, s, track, fn):
         p = self.p
-        s = np.asarray(x if self.spatial else t, dtype=float)
+        s = np.asarray(s, dtype=float)
         if not on_track(p.track, track):
-            return np.zeros_like(s)
+            return np.zeros_like(s), 1.0
         span = p.length if self.spatial else p.duration
         period = p.period if p.period is not None else 2.0 * span
         z = np.zeros_like(s)
         for i in range(p.repeat):
             u = (s - p.start - i * period) / span
             inside = (u >= 0) & (u <= 1)
-            z = z + np.where(inside, self.shape(np.clip(u, 0.0, 1.0)), 0.0)
-        return p.height * z
+            z = z + np.where(inside, fn(np.clip(u, 0.0, 1.0)), 0.0)
+        return z, span
+
+    def height(self, t, x, track=0):
+        return self.p.height * self._sum(x if self.spatial else t, track, self.shape)[0]
+
+    def slopes(self, t, x, track=0):
+        z, span = self._sum(x if self.spatial else t, track, self.shape_rate)
+        dz = self.p.height * z / span
+        zero = np.zeros_like(dz)
+        return (zero, dz) if self.spatial else (dz, zero)
 
 
 class GriddedProfile:
@@ -113,6 +137,19 @@ class GriddedProfile:
             z = z * cosine_window(x, self.fade_in)
         return z
 
+    def _faded_slope(self, x, z, dz):
+        if self.fade_in > 0:
+            return dz * cosine_window(x, self.fade_in) + z * cosine_window_rate(x, self.fade_in)
+        return dz
+
+    def slope(self, x) -> np.ndarray:
+        """dz/dx (m/m) of :meth:`__call__`: the spline's analytic derivative (0 where the end values are held),
+        with the fade-in's product rule."""
+        x = np.asarray(x, dtype=float)
+        xc = np.clip(x, self.x0, self.x1)
+        dz = np.where((x >= self.x0) & (x <= self.x1), self._spline(xc, 1), 0.0)
+        return self._faded_slope(x, self._spline(xc), dz)
+
 
 class PeriodicProfile(GriddedProfile):
     """A periodic road profile: samples ``z`` at ``x0 + k·dx`` (k < N) of one period ``N·dx``, repeated
@@ -135,6 +172,11 @@ class PeriodicProfile(GriddedProfile):
         if self.fade_in > 0:
             z = z * cosine_window(x, self.fade_in)
         return z
+
+    def slope(self, x) -> np.ndarray:
+        x = np.asarray(x, dtype=float)
+        xm = self.x0 + np.mod(x - self.x0, self.period)
+        return self._faded_slope(x, self._spline(xm), self._spline(xm, 1))
 
 
 #: a run whose random road is longer than this (m) drives a periodic road of this length (bounded memory)

@@ -32,7 +32,7 @@ class RoadContext:
 
 
 class Road:
-    """Base class. Subclasses set ``Params`` and implement :meth:`height`."""
+    """Base class. Subclasses set ``Params`` and implement :meth:`height` and its derivative :meth:`slopes`."""
 
     name = "road"
     Params = NoParams
@@ -45,10 +45,20 @@ class Road:
     def height(self, t: np.ndarray, x: np.ndarray, track: int = 0) -> np.ndarray:
         raise NotImplementedError
 
-    def velocity(self, t: np.ndarray, x: np.ndarray, track: int, dt: float) -> np.ndarray:
-        """Road height rate dz/dt along the samples (default: central differences of :meth:`height` in
-        time, valid for samples taken every ``dt``)."""
-        z = self.height(t, x, track)
-        if z.size < 2:
-            return np.zeros_like(z)
-        return np.gradient(z, dt)
+    def slopes(self, t: np.ndarray, x: np.ndarray, track: int = 0) -> tuple[np.ndarray, np.ndarray]:
+        """Partial derivatives (∂z/∂t in m/s, ∂z/∂x in m/m) of :meth:`height` at the samples: the road's own
+        derivative law, which :meth:`rate` combines with the wheel's motion.  Every registered road gives
+        its exact derivative; this default (for a road that does not) is a fine central difference."""
+        t = np.asarray(t, dtype=float)
+        x = np.asarray(x, dtype=float)
+        h = 1e-6
+        zt = (self.height(t + h, x, track) - self.height(t - h, x, track)) / (2 * h)
+        zx = (self.height(t, x + h, track) - self.height(t, x - h, track)) / (2 * h)
+        return zt, zx
+
+    def rate(self, t: np.ndarray, x: np.ndarray, track: int, t_rate, x_rate) -> np.ndarray:
+        """Road height rate dz/dt (m/s) under a wheel whose corner time advances at ``t_rate`` (s/s) and
+        whose distance at ``x_rate`` (m/s): ∂z/∂t·ṫ + ∂z/∂x·ẋ, the exact time derivative of the height the
+        wheel sees (both loops read it through :meth:`System.road_chunk`)."""
+        zt, zx = self.slopes(t, x, track)
+        return zt * t_rate + zx * x_rate

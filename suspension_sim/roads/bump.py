@@ -63,3 +63,7 @@ class Bump(PulseRoad):
     @staticmethod
     def shape(u):
         return 0.5 * (1.0 - np.cos(2.0 * np.pi * u))
+
+    @staticmethod
+    def shape_rate(u):
+        return np.pi * np.sin(2.0 * np.pi * u)

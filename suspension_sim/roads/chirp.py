@@ -19,7 +19,7 @@ from scipy.signal import chirp
 
 from ..components import Params
 from ..registry import ROADS
-from ._common import cosine_window
+from ._common import cosine_window, cosine_window_rate
 from .base import Road
 
 
@@ -56,3 +56,31 @@ class Chirp(Road):
         if taper > 0:
             z = z * cosine_window(sc, taper) * cosine_window(p.duration - sc, taper)
         return np.where(inside, z, 0.0)
+
+    def frequency(self, s):
+        """Instantaneous frequency (Hz) of the sweep at time s after its start (scipy's laws)."""
+        p = self.p
+        T, f0, f1 = p.duration, p.f0, p.f1
+        if p.method == "linear":
+            return f0 + (f1 - f0) * s / T
+        if p.method == "quadratic":
+            return f0 + (f1 - f0) * (s / T) ** 2
+        if p.method == "logarithmic":
+            return f0 * (f1 / f0) ** (s / T)
+        return f0 * f1 * T / ((f0 - f1) * s + f1 * T)  # hyperbolic
+
+    def slopes(self, t, x, track=0):
+        p = self.p
+        s = np.asarray(t, dtype=float) - p.start
+        taper = p.taper if p.taper is not None else min(0.1 * p.duration, 1.0)
+        inside = (s >= 0) & (s <= p.duration)
+        sc = np.clip(s, 0.0, p.duration)
+        # z = A·sin ϕ(s) (scipy's cos(ϕ − 90°)), so dz/ds = A·cos ϕ(s)·2π f(s), cos ϕ being scipy's chirp at 0°
+        dz = p.amplitude * chirp(sc, f0=p.f0, t1=p.duration, f1=p.f1, method=p.method, phi=0.0) \
+            * 2.0 * np.pi * self.frequency(sc)
+        if taper > 0:
+            z = p.amplitude * chirp(sc, f0=p.f0, t1=p.duration, f1=p.f1, method=p.method, phi=-90.0)
+            w0, w1 = cosine_window(sc, taper), cosine_window(p.duration - sc, taper)
+            dz = dz * w0 * w1 + z * (cosine_window_rate(sc, taper) * w1 - w0 * cosine_window_rate(p.duration - sc, taper))
+        dz = np.where(inside, dz, 0.0)
+        return dz, np.zeros_like(dz)

@@ -242,3 +242,7 @@ class Hac(Road):
 
     def height(self, t, x, track=0):
         return self.profiles[min(track, len(self.profiles) - 1)](x)
+
+    def slopes(self, t, x, track=0):
+        dz = self.profiles[min(track, len(self.profiles) - 1)].slope(x)
+        return np.zeros_like(dz), dz

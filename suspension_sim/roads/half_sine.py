@@ -22,3 +22,7 @@ class HalfSine(PulseRoad):
     @staticmethod
     def shape(u):
         return np.sin(np.pi * u)
+
+    @staticmethod
+    def shape_rate(u):
+        return np.pi * np.cos(np.pi * u)

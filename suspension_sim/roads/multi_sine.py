@@ -15,7 +15,7 @@ from pydantic import Field, model_validator
 
 from ..components import Params
 from ..registry import ROADS
-from ._common import cosine_window
+from ._common import cosine_window, cosine_window_rate
 from .base import Road
 
 
@@ -62,3 +62,14 @@ class MultiSine(Road):
         if p.fade_in > 0:
             z = z * cosine_window(s, p.fade_in)
         return np.where(s >= 0, z, 0.0)
+
+    def slopes(self, t, x, track=0):
+        p = self.p
+        s = np.asarray(x if self.spatial else t, dtype=float) - p.start
+        arg = 2.0 * np.pi * s[..., None] * self.k + self.phi
+        dz = np.cos(arg) @ (2.0 * np.pi * self.k * self.A)
+        if p.fade_in > 0:
+            z = (np.sin(arg) - np.sin(self.phi)) @ self.A
+            dz = dz * cosine_window(s, p.fade_in) + z * cosine_window_rate(s, p.fade_in)
+        dz = np.where(s >= 0, dz, 0.0)
+        return (np.zeros_like(dz), dz) if self.spatial else (dz, np.zeros_like(dz))

@@ -67,3 +67,16 @@ class RoundStep(Road):
         u = (s - p.start) / tau
         f = rounded_step(u) if p.shape == "step" else rounded_pulse(u)
         return np.where(u >= 0, p.height * f, 0.0)
+
+    def slopes(self, t, x, track=0):
+        p = self.p
+        spatial = p.length_constant is not None
+        s = np.asarray(x if spatial else t, dtype=float)
+        if not on_track(p.track, track):
+            dz = np.zeros_like(s)
+        else:
+            tau = p.length_constant if spatial else p.time_constant
+            u = np.maximum((s - p.start) / tau, 0.0)
+            df = u * np.exp(-u) if p.shape == "step" else (np.e / 2.0) ** 2 * (2.0 * u - u * u) * np.exp(-u)
+            dz = np.where(s >= p.start, p.height * df / tau, 0.0)
+        return (np.zeros_like(dz), dz) if spatial else (dz, np.zeros_like(dz))

@@ -6,6 +6,7 @@ from pydantic import Field, model_validator
 
 from ..components import Params
 from ..registry import ROADS
+from ._common import cosine_window, cosine_window_rate
 from .base import Road
 
 
@@ -30,16 +31,23 @@ class Sine(Road):
 
     Params = SineParams
 
-    def height(self, t, x, track=0):
+    def _law(self, t, x):
         p = self.p
         if p.frequency is not None:
-            s = np.asarray(t, dtype=float) - p.start
-            arg = 2 * np.pi * p.frequency * s + p.phase
+            s, k = np.asarray(t, dtype=float) - p.start, 2 * np.pi * p.frequency
         else:
-            s = np.asarray(x, dtype=float) - p.start
-            arg = 2 * np.pi * s / p.wavelength + p.phase
+            s, k = np.asarray(x, dtype=float) - p.start, 2 * np.pi / p.wavelength
+        arg = k * s + p.phase
         z = p.amplitude * (np.sin(arg) - np.sin(p.phase))
+        dz = p.amplitude * k * np.cos(arg)
         if p.fade_in > 0:
-            w = np.clip(s / p.fade_in, 0, 1)
-            z = z * 0.5 * (1 - np.cos(np.pi * w))
-        return np.where(s >= 0, z, 0.0)
+            z, dz = z * cosine_window(s, p.fade_in), dz * cosine_window(s, p.fade_in) + z * cosine_window_rate(
+                s, p.fade_in)
+        return s, np.where(s >= 0, z, 0.0), np.where(s >= 0, dz, 0.0)
+
+    def height(self, t, x, track=0):
+        return self._law(t, x)[1]
+
+    def slopes(self, t, x, track=0):
+        dz = self._law(t, x)[2]
+        return (dz, np.zeros_like(dz)) if self.p.frequency is not None else (np.zeros_like(dz), dz)
