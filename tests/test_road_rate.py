@@ -118,3 +118,16 @@ def test_road_chunk_rate_follows_each_wheel_under_a_varying_speed(road):
         scale = np.max(np.abs(fine[:, c]))
         assert scale > 1e-2
         assert np.max(np.abs(zd[0, 1:-1, c] - fine[:, c])) / scale < 1e-3
+
+
+@pytest.mark.parametrize("name,params", [("multi_sine", {"amplitudes": [0.02, 0.01], "frequencies": [0.5, 1.2]}),
+                                         ("half_sine", {"duration": 0.3}),
+                                         ("chirp", {"f0": 1.0, "f1": 5.0, "duration": 2.0, "taper": 0.0})])
+def test_rate_on_a_kink_is_the_mean_of_the_one_sided_derivatives(name, params, tmp_path):
+    """A road starting with a slope at t = 0 has a kink on the first sample: the rate there is the mean of the
+    one-sided derivatives (the limit of a central difference), not the right-hand one (which moved the Ch. 3
+    adaptation's first controller sample by 2x); just after the edge it is the exact derivative."""
+    road = _road(name, params, 200.0, tmp_path)
+    right = road.rate(np.array([1e-9]), np.array([0.0]), 0, 1.0, V)[0]
+    assert abs(right) > 1e-2
+    assert road.rate(np.array([0.0]), np.array([0.0]), 0, 1.0, V)[0] == pytest.approx(0.5 * right, rel=1e-6)

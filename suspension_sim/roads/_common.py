@@ -38,6 +38,14 @@ def cosine_window_rate(s, length: float) -> np.ndarray:
     return np.where(inside, 0.5 * np.pi / length * np.sin(np.pi * np.clip(s / length, 0.0, 1.0)), 0.0)
 
 
+def edge_weight(s) -> np.ndarray:
+    """1 for s > 0, 0 for s < 0 and ½ at s = 0: the weight of a one-sided derivative at a shape's edge, so that a
+    rate sampled exactly on a kink (a road starting with a slope at t = 0) is the mean of the two one-sided
+    derivatives, the limit of a central difference as the step goes to 0 (elsewhere the exact derivative)."""
+    s = np.asarray(s, dtype=float)
+    return np.where(s > 0, 1.0, np.where(s == 0, 0.5, 0.0))
+
+
 TrackSel = Literal["both", "left", "right"]
 
 
@@ -89,7 +97,7 @@ class PulseRoad(Road):
     def spatial(self) -> bool:
         return self.p.length is not None
 
-    def _sum(self, s, track, fn):
+    def _sum(self, s, track, fn, edges=False):
         p = self.p
         s = np.asarray(s, dtype=float)
         if not on_track(p.track, track):
@@ -99,15 +107,15 @@ class PulseRoad(Road):
         z = np.zeros_like(s)
         for i in range(p.repeat):
             u = (s - p.start - i * period) / span
-            inside = (u >= 0) & (u <= 1)
-            z = z + np.where(inside, fn(np.clip(u, 0.0, 1.0)), 0.0)
+            inside = edge_weight(u) * edge_weight(1.0 - u) if edges else ((u >= 0) & (u <= 1))
+            z = z + np.where(inside > 0, inside * fn(np.clip(u, 0.0, 1.0)), 0.0)
         return z, span
 
     def height(self, t, x, track=0):
         return self.p.height * self._sum(x if self.spatial else t, track, self.shape)[0]
 
     def slopes(self, t, x, track=0):
-        z, span = self._sum(x if self.spatial else t, track, self.shape_rate)
+        z, span = self._sum(x if self.spatial else t, track, self.shape_rate, edges=True)
         dz = self.p.height * z / span
         zero = np.zeros_like(dz)
         return (zero, dz) if self.spatial else (dz, zero)
@@ -147,7 +155,7 @@ class GriddedProfile:
         with the fade-in's product rule."""
         x = np.asarray(x, dtype=float)
         xc = np.clip(x, self.x0, self.x1)
-        dz = np.where((x >= self.x0) & (x <= self.x1), self._spline(xc, 1), 0.0)
+        dz = edge_weight(x - self.x0) * edge_weight(self.x1 - x) * self._spline(xc, 1)
         return self._faded_slope(x, self._spline(xc), dz)
 
 

@@ -19,7 +19,7 @@ from scipy.signal import chirp
 
 from ..components import Params
 from ..registry import ROADS
-from ._common import cosine_window, cosine_window_rate
+from ._common import cosine_window, cosine_window_rate, edge_weight
 from .base import Road
 
 
@@ -73,7 +73,6 @@ class Chirp(Road):
         p = self.p
         s = np.asarray(t, dtype=float) - p.start
         taper = p.taper if p.taper is not None else min(0.1 * p.duration, 1.0)
-        inside = (s >= 0) & (s <= p.duration)
         sc = np.clip(s, 0.0, p.duration)
         # z = A·sin ϕ(s) (scipy's cos(ϕ − 90°)), so dz/ds = A·cos ϕ(s)·2π f(s), cos ϕ being scipy's chirp at 0°
         dz = p.amplitude * chirp(sc, f0=p.f0, t1=p.duration, f1=p.f1, method=p.method, phi=0.0) \
@@ -82,5 +81,5 @@ class Chirp(Road):
             z = p.amplitude * chirp(sc, f0=p.f0, t1=p.duration, f1=p.f1, method=p.method, phi=-90.0)
             w0, w1 = cosine_window(sc, taper), cosine_window(p.duration - sc, taper)
             dz = dz * w0 * w1 + z * (cosine_window_rate(sc, taper) * w1 - w0 * cosine_window_rate(p.duration - sc, taper))
-        dz = np.where(inside, dz, 0.0)
+        dz = edge_weight(s) * edge_weight(p.duration - s) * dz
         return dz, np.zeros_like(dz)

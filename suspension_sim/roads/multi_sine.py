@@ -15,7 +15,7 @@ from pydantic import Field, model_validator
 
 from ..components import Params
 from ..registry import ROADS
-from ._common import cosine_window, cosine_window_rate
+from ._common import cosine_window, cosine_window_rate, edge_weight
 from .base import Road
 
 
@@ -71,5 +71,5 @@ class MultiSine(Road):
         if p.fade_in > 0:
             z = (np.sin(arg) - np.sin(self.phi)) @ self.A
             dz = dz * cosine_window(s, p.fade_in) + z * cosine_window_rate(s, p.fade_in)
-        dz = np.where(s >= 0, dz, 0.0)
+        dz = edge_weight(s) * dz
         return (np.zeros_like(dz), dz) if self.spatial else (dz, np.zeros_like(dz))

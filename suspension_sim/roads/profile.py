@@ -43,7 +43,7 @@ from scipy.ndimage import uniform_filter1d
 from ..components import Params
 from ..errors import ScenarioError
 from ..registry import ROADS
-from ._common import cosine_window, cosine_window_rate
+from ._common import cosine_window, cosine_window_rate, edge_weight
 from .base import Road
 
 Column = Union[str, int]
@@ -176,9 +176,9 @@ class Profile(Road):
         if p.beyond_end == "repeat":
             s = np.where(s > self.length, np.mod(s, self.length), s)
         sc = np.clip(s, 0.0, self.length)
-        dz = np.where((s >= 0) & (s <= self.length), self._spline(sc, 1), 0.0)  # held beyond the ends
+        dz = edge_weight(s) * edge_weight(self.length - s) * self._spline(sc, 1)  # held beyond the ends
         if p.fade_in > 0:
             dz = dz * cosine_window(x, p.fade_in) + self._spline(sc) * cosine_window_rate(x, p.fade_in)
         else:
-            dz = np.where(x >= 0, dz, 0.0)
+            dz = edge_weight(x) * dz
         return np.zeros_like(dz), dz

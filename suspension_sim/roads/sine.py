@@ -6,7 +6,7 @@ from pydantic import Field, model_validator
 
 from ..components import Params
 from ..registry import ROADS
-from ._common import cosine_window, cosine_window_rate
+from ._common import cosine_window, cosine_window_rate, edge_weight
 from .base import Road
 
 
@@ -43,7 +43,7 @@ class Sine(Road):
         if p.fade_in > 0:
             z, dz = z * cosine_window(s, p.fade_in), dz * cosine_window(s, p.fade_in) + z * cosine_window_rate(
                 s, p.fade_in)
-        return s, np.where(s >= 0, z, 0.0), np.where(s >= 0, dz, 0.0)
+        return s, np.where(s >= 0, z, 0.0), edge_weight(s) * dz
 
     def height(self, t, x, track=0):
         return self._law(t, x)[1]
