@@ -27,7 +27,8 @@ F_cont as a constant disturbance d; the regulator structure has no constant term
 obtains its "mean upward force of 1500 N" through the estimated M* in Eq. 3.6 without giving the law.
 We add one parameter θ_d with regressor 1/P (the filtered constant 1): R(F + d) = R F + r1·d exactly for
 a constant d, so the error model stays linear in parameters and θ_d converges to r1·d; the actuator then
-carries the extra static load, F_act → ΔM·g.  ``static_level: false`` removes it (pure thesis structure).
+carries the extra static load, F_act → ΔM·g.  Off by default (``static_level: false``, the thesis's structure
+as printed); the scenarios name the variants that turn it on (``mrac_thetad*``).
 θ_d has its own normalised law (gain ``gamma_d``), the other five share the normalised gradient law.
 
 Filter choice — also ours when ``p1`` is set: the thesis takes P1 = A_m; for D_m = 6000 N·s/m, A_m has a
@@ -81,7 +82,7 @@ class MRACContinuousParams(Params):
                                 "(see module doc); none = thesis")
     k_v: float = Field(0.1, ge=0, description="velocity-error weight K_v (s) in the augmented error")
     gamma_b0: float = Field(0.0, ge=0, description="b0 estimator gain (0 = keep b0 = 1/M*)")
-    static_level: bool = Field(True, description="adapt the static-load parameter θ_d (see module doc)")
+    static_level: bool = Field(False, description="adapt the static-load parameter θ_d (ours, not in the thesis; see module doc); default off: the printed law")
     gamma_d: float = Field(20000.0, ge=0, description="gain of θ_d's own normalised law dθ_d/dt = γ_d φ_d ε/(α + φ_d²); "
                            "the rate of static-level recovery is ≈ γ_d·b0 (1/s)")
     theta0: Optional[list[float]] = Field(None, description="initial Θ (6 values incl. θ_d); default nominal")

@@ -489,6 +489,10 @@ def _ch7(raw):
                    "speed": 10}
 
 
+def _thetad(raw):
+    raw["controller"]["params"].update(p1=20, static_level=True, gamma_d=20000)
+
+
 def _ch5_schedule(raw):
     raw["controller"]["params"].update(update_period=0.3, schedule=[
         {"time": 0, "mass": 250, "stiffness": 5000, "damping": 250},
@@ -508,7 +512,8 @@ def ensemble(repo, name, duration, param, values, edit=None):
 
 
 @pytest.mark.parametrize("name, edit, param, values", [
-    ("thesis_ch3_dirt", None, "sprung_mass", [250, 350, 450]),
+    ("thesis_ch3_dirt", None, "sprung_mass", [250, 350, 450]),  # the printed law (the default)
+    ("thesis_ch3_dirt", _thetad, "sprung_mass", [250, 350]),  # the variant with our θ_d and P1
     ("thesis_ch4_dirt", _no_effects, "sprung_mass", [250, 350, 450]),
     ("thesis_ch5_varying", _ch5_schedule, "sprung_mass", [250, 320]),
     ("thesis_ch6_bump", lambda raw: (_ch6_bump(raw), _no_effects(raw)), "sprung_mass", [70]),

@@ -67,7 +67,7 @@ def varying(request):
                 e["time"] = t
 
     return run_variants(request.config.rootpath, "thesis_ch5_varying", edit,
-                        variants=("passive", "soc_fixed", "soc_rescheduled_5s", "mrac"))
+                        variants=("passive", "soc_fixed", "soc_rescheduled_5s", "mrac", "mrac_thetad"))
 
 
 def test_fixed_gain_soc_goes_unstable_rescheduled_and_mrac_do_not(varying):
@@ -93,9 +93,10 @@ def test_fixed_gain_soc_goes_unstable_rescheduled_and_mrac_do_not(varying):
     # body sits lower, but it is a stable equilibrium
     assert np.max(np.abs(win("soc_rescheduled_5s", "actuator_force"))) < 0.99 * 5000
     assert np.mean(np.abs(win("soc_rescheduled_5s", "body_z"))) < np.mean(np.abs(win("soc_fixed", "body_z")))
-    # the MRAC keeps its level through the load and the stiffness change
-    assert abs(np.mean(win("mrac", "body_z"))) < 0.05
-    assert abs(np.mean(win("mrac", "body_z", 9.0, 12.0))) < 0.05  # under load and with the soft spring
+    # the MRAC with our static-load parameter θ_d and P1 = (s + 20)² (named variant `mrac_thetad`, not in the
+    # thesis) keeps its level through the load and the stiffness change
+    assert abs(np.mean(win("mrac_thetad", "body_z"))) < 0.05
+    assert abs(np.mean(win("mrac_thetad", "body_z", 9.0, 12.0))) < 0.05  # under load and with the soft spring
     # … which the passive car fails: it sags under the load with the softened spring (≈ 0.39 m + the lost
     # K·δ_st share) and still sits low once the load is gone
     assert np.mean(win("passive", "body_z", 9.0, 12.0)) < -0.2
@@ -125,3 +126,20 @@ def test_no_weights_give_the_thesis_placement_of_the_soc(request, nominal):
     low = {k: band(t, "body_z", 0.1, 0.5) for k, t in (("stiff", out["stiff"]), ("cheap", out["cheap"]), ("mrac", m))}
     assert low["stiff"] < low["mrac"] and rattle(out["stiff"]) < rattle(m) and work(out["stiff"]) < work(m)
     assert rattle(out["cheap"]) > rattle(m) and work(out["cheap"]) > work(m) and low["cheap"] > 10 * low["mrac"]
+
+
+def test_printed_mrac_does_not_keep_its_level_under_the_load(varying):
+    """The literal result the page reports for "the MRAC keeps its behaviour": the Ch. 3 law as printed (variant
+    `mrac`: P1 = A_m, no static-load term) has no constant term, so the load and the softer spring's lost share of
+    the static load are carried by its static gain (thesis_ch3_load_step: −2.96 m without a force limit); here it
+    pushes down into the 5 kN limit and sinks more than a metre (measured at thesis timing: −1.23 m under the load,
+    −1.88 m with the soft spring, still −1.50 m after the load is gone).  The variant `mrac_thetad` holds the level
+    on the same run (test above), so this is the law, not the scenario."""
+    def win(name, col, t0, t1):
+        ts = varying[name]
+        return ts[col][(ts.t >= t0) & (ts.t < t1)].to_numpy()
+
+    assert abs(np.mean(win("mrac", "body_z", 0.5, 2.0))) < 0.01  # before the load it holds the level
+    assert np.mean(win("mrac", "body_z", 9.0, 12.0)) < -1.0
+    assert np.mean(np.abs(win("mrac", "actuator_force", 9.0, 12.0)) > 0.99 * 5000) > 0.5
+    assert abs(np.mean(win("mrac_thetad", "body_z", 9.0, 12.0))) < 0.05
