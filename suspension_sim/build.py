@@ -273,7 +273,7 @@ class System:
                 cols = [eff.ctx.corners.index(c) for c in v.corners] if v.corners != "all" else None
                 self.variations.append(EffectVariation(eff, name, cols, cfgs))
                 continue
-            fld, idx = P.variation_index(v.param)
+            fld, idx = P.variation_index(v.param, None if v.corners == "all" else list(v.corners))
             if fld.startswith("body"):
                 self._const_scratch = mujoco.MjData(m)
             arr = getattr(m, fld).reshape(-1) if fld == "body_inertia" else getattr(m, fld)

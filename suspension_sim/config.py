@@ -346,6 +346,9 @@ def check_components(sc: Scenario, source: str | None = None) -> None:
         elif v.param not in vcls.Params.model_fields:
             raise ScenarioError(f"unknown vehicle parameter {v.param!r} (known: {', '.join(vcls.Params.model_fields)})",
                                 source=source, field=f"vehicle.variations.{i}.param")
+        elif v.corners != "all":
+            _check_corners(v.corners, corners, f"vehicle.variations.{i}.corners", source)
+            _check_vehicle_variation_corners(vcls, vparams, corners, v, i, source)
         if v.kind in ("step", "ramp") and len(v.times) != len(v.values):
             raise ScenarioError("times and values must have the same length", source=source,
                                 field=f"vehicle.variations.{i}")
@@ -421,6 +424,16 @@ def _check_effect_variation(sc, labels, corners, v, i, source) -> None:
                             f"{', '.join(numeric) or 'none'})", source=source, field=field)
     ecorners = corners if e.corners == "all" else list(e.corners)
     _check_corners(v.corners, ecorners, f"vehicle.variations.{i}.corners", source)
+
+
+def _check_vehicle_variation_corners(vcls, vparams, corners, v, i, source) -> None:
+    from .vehicles.base import targets_on_corners
+
+    targets = vcls.variation_targets(vparams).get(v.param)
+    if targets is not None and targets_on_corners(targets, list(v.corners), corners) is None:
+        raise ScenarioError(f"parameter {v.param!r} does not act on corner(s) {list(v.corners)} (leave corners "
+                            "at 'all', or choose a corner this parameter has)", source=source,
+                            field=f"vehicle.variations.{i}.corners")
 
 
 def _is_number_or_numbers(x) -> bool:

@@ -273,16 +273,25 @@ class Plant:
         idx = self.susp_t if which == "suspension" else self.tire_t
         return getattr(self.model, field)[idx].copy()
 
-    def variation_index(self, param: str, corner_sel: list[int] | None = None):
-        """(MjModel field name, flat index array (n_cars, k)) changed by a vehicle parameter."""
+    def variation_index(self, param: str, corners: list[str] | None = None):
+        """(MjModel field name, flat index array (n_cars, k)) changed by a vehicle parameter (on ``corners``
+        only, when given: the parameter's elements named ``*_<corner>``)."""
+        from .vehicles.base import targets_on_corners
+
         m = self.model
         targets = self.vcls.variation_targets(self.params[0])
         if param not in targets:
             raise ScenarioError(f"parameter {param!r} cannot vary in time for model {self.vcls.name!r} "
                                 f"(can: {', '.join(targets)})", field="vehicle.variations.param")
+        chosen = targets[param]
+        if corners is not None:
+            chosen = targets_on_corners(chosen, list(corners), list(self.vcls.corner_names(self.params[0])))
+            if chosen is None:
+                raise ScenarioError(f"parameter {param!r} does not act on corner(s) {list(corners)}",
+                                    field="vehicle.variations.corners")
         fields = set()
         cols = []
-        for kind, elem, k in targets[param]:
+        for kind, elem, k in chosen:
             objtype = mujoco.mjtObj.mjOBJ_BODY if kind.startswith("body") else mujoco.mjtObj.mjOBJ_TENDON
             ids = [_idx(m, objtype, f"car{i}/{elem}") for i in range(self.n)]
             fields.add(kind)

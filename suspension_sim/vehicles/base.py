@@ -100,6 +100,16 @@ class Vehicle:
         return {}
 
 
+def targets_on_corners(targets: list, corners: list[str], all_corners: list[str]) -> list | None:
+    """The variation targets of one parameter that act on ``corners`` (MJCF elements named ``*_<corner>``).
+    All of them when ``corners`` is every corner of the model; None when the parameter is not per corner
+    (no target names a corner) or names none of the chosen ones."""
+    if sorted(corners) == sorted(all_corners):
+        return list(targets)
+    picked = [t for t in targets if any(t[1].endswith(f"_{c}") for c in corners)]
+    return picked or None
+
+
 def set_body_mass(root: mjcf.RootElement, body: str, mass: float) -> None:
     b = root.find("body", body)
     b.inertial.mass = float(mass)
