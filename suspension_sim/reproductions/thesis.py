@@ -346,10 +346,11 @@ def ch3_dirt(ctx) -> ItemOutput:
     for P, s_, lab in ((Pref, "k-", "reference"), (Pp, "g-", "passive"), (Pa, "r-", "mrac_thetad (ours)")):
         ax[1].loglog(f[1:], P[1:], s_, lw=0.7, label=lab)
     ax[1].set_xlim(0.2, 10)
+    ax[1].set_ylim(1e-5, 3)
     ax[1].set_xlabel("frequency (Hz)")
     ax[1].set_ylabel("body acc PSD (m²/s⁴/Hz)")
     ax[1].legend(fontsize=7)
-    fig.suptitle("Thesis Ch. 3 (Figs. 3.11–3.14): dirt road, mode II unknown to the controller; the printed law "
+    fig.suptitle("Thesis Ch. 3 (Figs. 3.11–3.14): dirt road, mode II unknown to the controller;\nthe printed law "
                  + (f"stopped at {t_stop:.1f} s (sinks)" if np.isfinite(t_stop) else "ran"), fontsize=9)
     fig.tight_layout()
     key = {"thesis_stop_time": (t_stop, 0.1), "passive_level": (zp, 0.01), "mrac_level": (za, 0.01), "ratio_res": (ra[1], 0.1), "ratio_hi": (ra[3], 0.1),
@@ -794,6 +795,7 @@ def ch5(ctx) -> ItemOutput:
         s_ = {"passive": "g-", "soc": "b-", "mrac": "r-", "mrac_thetad": "m--"}[k]
         ax[0].loglog(f[1:], P[1:], s_, lw=0.7, label=k)
     ax[0].set_xlim(0.2, 10)
+    ax[0].set_ylim(1e-5, 3)
     ax[0].set_ylabel("body acc PSD (m²/s⁴/Hz)")
     ax[0].legend(fontsize=7)
     for k, s_ in (("passive", "g-"), ("soc_fixed", "b-"), ("soc_rescheduled_5s", "c-"), ("mrac", "r-"),
