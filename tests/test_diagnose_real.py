@@ -40,9 +40,6 @@ def test_silverbox_names_cubic_stiffness_and_reaches_the_published_models(real_d
     assert f0 == pytest.approx(68.5, abs=1.0)
 
 
-@pytest.mark.xfail(strict=True, reason="known: on the one-physics engine round 3 names quadratic damping, which replaces "
-                   "the viscous friction (Fv 0.016 vs the reference 203 N s/m) while the held-out error drops 15.3 -> "
-                   "5.1 mm; selection has no rule against a physically implausible replacement yet (docs/diagnose.md)")
 def test_emps_names_coulomb_friction(real_data, tmp_path):
     import diagnose_real
 
@@ -50,12 +47,17 @@ def test_emps_names_coulomb_friction(real_data, tmp_path):
     assert "coulomb_friction" in r["named"]
     # SOURCE.md's own open-loop check (linear → + Coulomb, Euler at 1 kHz): test 17.2 → 9.0 mm
     assert r["rmse_mm"]["test_after"] <= 9.0
-    assert r["rmse_mm"]["test_after"] <= 0.6 * r["rmse_mm"]["test_before"]
+    # and better than our own calibrated linear model.  (The ratio asked before, ≤ 0.6×, was SOURCE's linear
+    # 17.2 → 9.0 mm, from the IDIM-LS linear model; our output-error linear fit, with the mass free since the
+    # zero-spring sag fix, is already 7.2 mm, so the anchor is the absolute 9.0 mm above.)
+    assert r["rmse_mm"]["test_after"] < r["rmse_mm"]["test_before"]
     fit = r["fitted"]
     # the fitted physics is close to the organisers' IDIM-LS reference (M 95.1 kg, Fv 203.4 N s/m, Fc 20.4 N)
     assert fit["sprung_mass"] == pytest.approx(95.1, rel=0.25)
     assert fit["damping"] == pytest.approx(203.4, rel=0.3)
     assert fit["coulomb_friction.force"] == pytest.approx(20.4, rel=0.4)
+    # the force offset too (SOURCE.md: −3.17 N on the left-hand side, +3.17 N added to the input here)
+    assert fit["input.offset"] == pytest.approx(3.17, rel=0.25)
 
 
 def test_quanser_claims_only_what_beats_the_repeatability_floor(real_data, tmp_path):
