@@ -388,10 +388,12 @@ class Selector:
         return e_new
 
     def _replaced(self, cur: FitResult, fr: FitResult, new_sizes: list) -> list:
-        """Earlier fitted physics that a candidate's fit ``fr`` drives to zero: every physical parameter of the
-        current model (a vehicle parameter, or the size of an effect already named) that was distinguishable
-        from zero (beyond 2 standard errors) and is no longer (within 2 standard errors of zero, or pushed
-        onto a bound of its band that it was not on).  Each comes with the largest correlation of its estimate
+        """Earlier fitted physics that a candidate's fit ``fr`` drives to zero: every vehicle parameter of the
+        current model (mass, stiffness, damping) that was distinguishable from zero (beyond 2 standard errors)
+        and is no longer (within 2 standard errors of zero, or pushed onto a bound of its band that it was not
+        on).  An effect already named is not protected here: when a newcomer takes its place (compound: Coulomb
+        friction in place of the hysteresis that stood in for it, correlation 0.98, z 7.1), the newcomer is kept
+        and the backward check drops the stand-in, as it drops any effect that no longer earns its place.  Each comes with the largest correlation of its estimate
         with the candidate's sizes in the joint fit (Gauss–Newton covariance): the pair is *separable* only
         when that correlation is below ``RHO_SEPARABLE``.  (EMPS: quadratic damping took the place of the
         viscous friction, 200 → 0.016 N·s/m, over a record whose rates make v and v|v| nearly collinear.)"""
@@ -402,7 +404,7 @@ class Selector:
         out = []
         for f in cur.spec.free:
             n = f.name
-            if not (f.size or n in veh) or n not in fr.P or n in new_sizes:
+            if n not in veh or n not in fr.P or n in new_sizes:
                 continue
             v0, s0 = float(cur.P[n]), float(cur.std.get(n, np.nan))
             if not abs(v0) > 2.0 * s0:
