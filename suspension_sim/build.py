@@ -244,17 +244,26 @@ class System:
 
         # roads ----------------------------------------------------------------------------------------
         self.speeds, self.roads = [], []
+        # cars with the same road, seed, speed and context share one road and speed profile (a sweep over
+        # vehicle parameters builds and evaluates its road once, not once per car; road_chunk then evaluates
+        # each distinct wheel path once)
+        shared: dict = {}
         for i, s in enumerate(self.scenarios):
-            sp = SpeedProfile(s.road.speed, self.duration, self.dt)
-            rcls = ROADS.get(s.road.type, field="road.type", source=source)
-            rp = validate_params(rcls.Params, s.road.params, "road.params", source)
             seed = s.road.seed if s.road.seed is not None else s.sim.seed
-            dist = float(sp.distance(self.duration)) if sp.const is not None else sp.max_distance
-            rctx = RoadContext(duration=self.duration, distance=dist, wheelbase=P.vcls.wheelbase(P.params[i]),
-                               mean_speed=sp.mean(self.duration), dt=self.dt,
-                               n_tracks=1 + int(max(self.geom.tracks) > 0), tracks=s.road.tracks)
+            wb = P.vcls.wheelbase(P.params[i])
+            key = (s.road.model_dump_json(), seed, wb)
+            if key not in shared:
+                sp = SpeedProfile(s.road.speed, self.duration, self.dt)
+                rcls = ROADS.get(s.road.type, field="road.type", source=source)
+                rp = validate_params(rcls.Params, s.road.params, "road.params", source)
+                dist = float(sp.distance(self.duration)) if sp.const is not None else sp.max_distance
+                rctx = RoadContext(duration=self.duration, distance=dist, wheelbase=wb,
+                                   mean_speed=sp.mean(self.duration), dt=self.dt,
+                                   n_tracks=1 + int(max(self.geom.tracks) > 0), tracks=s.road.tracks)
+                shared[key] = (sp, rcls(rp, np.random.default_rng([seed, 8608]), rctx))
+            sp, road = shared[key]
             self.speeds.append(sp)
-            self.roads.append(rcls(rp, np.random.default_rng([seed, 8608]), rctx))
+            self.roads.append(road)
         # distance of each axle behind the front axle, per car (cars of an ensemble may differ in a, b)
         xs = np.asarray([[c.x for c in P.vcls.corners(p)] for p in P.params], dtype=float)
         self.corner_back = xs.max(axis=1, keepdims=True) - xs  # (n_cars, n_corners)
@@ -385,9 +394,17 @@ class System:
         t = (np.arange(k0 - 1, k1 + 1)) * self.dt  # one extra sample each side (RK4's second differences)
         z = np.empty((n, L + 2, nc))
         zd = np.empty((n, L, nc))
+        seen: dict = {}  # a wheel path already evaluated (cars sharing a road, speed and axle position)
         for i, (road, sp) in enumerate(zip(self.roads, self.speeds)):
             x, v = sp.distance(t), sp.speed(t[1:-1])
             for c in range(nc):
+                key = (id(road), id(sp), float(self.corner_back[i, c]), self.geom.tracks[c])
+                if key in seen:
+                    j, cj = seen[key]
+                    z[i, :, c] = z[j, :, cj]
+                    zd[i, :, c] = zd[j, :, cj]
+                    continue
+                seen[key] = (i, c)
                 xc = x - self.corner_back[i, c]
                 if self.corner_back[i, c] == 0:
                     tc, tc_rate = t, 1.0
