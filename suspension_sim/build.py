@@ -395,8 +395,8 @@ class System:
         z = np.empty((n, L + 2, nc))
         zd = np.empty((n, L, nc))
         seen: dict = {}  # a wheel path already evaluated (cars sharing a road, speed and axle position)
+        paths: dict = {}  # distance and speed of each distinct speed profile
         for i, (road, sp) in enumerate(zip(self.roads, self.speeds)):
-            x, v = sp.distance(t), sp.speed(t[1:-1])
             for c in range(nc):
                 key = (id(road), id(sp), float(self.corner_back[i, c]), self.geom.tracks[c])
                 if key in seen:
@@ -405,6 +405,9 @@ class System:
                     zd[i, :, c] = zd[j, :, cj]
                     continue
                 seen[key] = (i, c)
+                if id(sp) not in paths:
+                    paths[id(sp)] = (sp.distance(t), sp.speed(t[1:-1]))
+                x, v = paths[id(sp)]
                 xc = x - self.corner_back[i, c]
                 if self.corner_back[i, c] == 0:
                     tc, tc_rate = t, 1.0
