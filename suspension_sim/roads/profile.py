@@ -155,12 +155,17 @@ class Profile(Road):
                 f"hold|repeat)", source=str(_resolve(p.file)), field="road.params.beyond_end")
         self._spline = CubicSpline(d, h)
 
+    def _along(self, x):
+        """(x as an array, the position along the profile: offset, wrapped when it repeats; not clipped)."""
+        x = np.asarray(x, dtype=float)
+        s = x + self.p.offset
+        if self.p.beyond_end == "repeat":
+            s = np.where(s > self.length, np.mod(s, self.length), s)
+        return x, s
+
     def height(self, t, x, track=0):
         p = self.p
-        x = np.asarray(x, dtype=float)
-        s = x + p.offset
-        if p.beyond_end == "repeat":
-            s = np.where(s > self.length, np.mod(s, self.length), s)
+        x, s = self._along(x)
         s = np.clip(s, 0.0, self.length)
         z = self._spline(s)
         if p.fade_in > 0:
@@ -171,10 +176,7 @@ class Profile(Road):
 
     def slopes(self, t, x, track=0):
         p = self.p
-        x = np.asarray(x, dtype=float)
-        s = x + p.offset
-        if p.beyond_end == "repeat":
-            s = np.where(s > self.length, np.mod(s, self.length), s)
+        x, s = self._along(x)
         sc = np.clip(s, 0.0, self.length)
         dz = edge_weight(s) * edge_weight(self.length - s) * self._spline(sc, 1)  # held beyond the ends
         if p.fade_in > 0:
