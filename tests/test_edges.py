@@ -263,11 +263,17 @@ POOL_SCRIPT = textwrap.dedent("""
 """)
 
 
+def _sigint_default():
+    """The child starts with SIGINT at its default (Python's KeyboardInterrupt): a test run launched in the
+    background (``cmd &`` in a script, nohup) ignores SIGINT, and the child would inherit that."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _start_pool(tmp_path, mode):
     s = tmp_path / "pool.py"
     s.write_text(POOL_SCRIPT)
     proc = subprocess.Popen([sys.executable, str(s), mode], stdout=subprocess.PIPE, text=True, cwd=REPO,
-                            start_new_session=True)
+                            start_new_session=True, preexec_fn=_sigint_default)
     line = proc.stdout.readline()  # a worker runs a task (so the pool is up)
     assert line.startswith("child"), line
     t0 = time.monotonic()
@@ -332,7 +338,7 @@ def test_viewer_server_dies_with_its_parent(tmp_path, sig):
     s = tmp_path / "v.py"
     s.write_text(VIEWER_SCRIPT)
     proc = subprocess.Popen([sys.executable, str(s)], stdout=subprocess.PIPE, text=True, cwd=REPO,
-                            start_new_session=True)
+                            start_new_session=True, preexec_fn=_sigint_default)
     line = ""
     t0 = time.monotonic()
     while not line.startswith("server") and time.monotonic() - t0 < 180:
@@ -482,7 +488,7 @@ def test_dask_local_workers_and_nannies_die_with_a_killed_parent(tmp_path):
     s = tmp_path / "d.py"
     s.write_text(DASK_SCRIPT)
     proc = subprocess.Popen([sys.executable, str(s)], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
-                            cwd=REPO, start_new_session=True)
+                            cwd=REPO, start_new_session=True, preexec_fn=_sigint_default)
     line = proc.stdout.readline()
     pids = [int(x) for x in line.split()[1:]]
     assert len(pids) == 2 and all(_alive(p) for p in pids), line
