@@ -112,10 +112,7 @@ class SpeedProfile:
         """d/dt of :meth:`time_at` (x − x(t_now) held, x advancing with the front axle): v(t_now)/v(time_at),
         1 where time_at returns t_now (no motion), 0 where the front axle stood still at x."""
         t_now = np.asarray(t_now, dtype=float)
-        if self.const is not None:
-            return np.ones_like(t_now)
-        if (self.knots is not None and not self.knots[2][-1] > self.knots[2][0]) or \
-                (self.knots is None and not self.x[-1] > self.x[0]):
+        if self.const is not None or not self.max_distance > 0:  # (distance starts at 0)
             return np.ones_like(t_now)
         vc = self.speed(self.time_at(x, t_now))
         return np.where(vc > 1e-9, self.speed(t_now) / np.where(vc > 1e-9, vc, 1.0), 0.0)
@@ -452,8 +449,7 @@ class System:
         self.actuator.reset()
         self.controller.reset()
         for var in self.variations:
-            if isinstance(var, EffectVariation):
-                var.restore()  # the effects restart from their nominal parameters
+            var.restore()  # the model and the effects restart from their nominal parameters
         for e, _ in self.effects:
             e.reset()
         for j, ch in enumerate(self.sensors):
@@ -570,6 +566,9 @@ class ModelVariation:
         for i, v in enumerate(self.cfgs):
             vals[i] = variation_value(v, t, self.nominal[i])
         self.arr[self.idx] = vals
+
+    def restore(self) -> None:
+        self.arr[self.idx] = self.nominal
 
 
 class EffectVariation:
