@@ -138,22 +138,22 @@ class KernelState:
     def forget_states(self) -> None:
         self._live_st = []
 
-    def initial_state(self) -> np.ndarray:
-        """The kernel state ``st`` of a start of run (a new array, not remembered)."""
+    def _unremembered_data(self):
+        """:meth:`kernel_data` called as a nested call: new (p, st) arrays that the loops are not handed."""
         self._kd_depth = getattr(self, "_kd_depth", 0) + 1
         try:
-            return f64(self.kernel_data()[1])
+            return self.kernel_data()
         finally:
             self._kd_depth -= 1
+
+    def initial_state(self) -> np.ndarray:
+        """The kernel state ``st`` of a start of run (a new array, not remembered)."""
+        return f64(self._unremembered_data()[1])
 
     def parameter_rows(self) -> np.ndarray:
         """The kernel parameters ``p`` from the current parameters (a new array, not remembered; for a parameter
         changed during a run)."""
-        self._kd_depth = getattr(self, "_kd_depth", 0) + 1
-        try:
-            return f64(self.kernel_data()[0])
-        finally:
-            self._kd_depth -= 1
+        return f64(self._unremembered_data()[0])
 
     def reset_cars(self, cars) -> None:
         """Put the kernel state of the cars ``cars`` (indices) back to its initial value; other cars untouched."""
