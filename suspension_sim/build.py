@@ -445,6 +445,9 @@ class System:
         """Back to the start of a run: MuJoCo data reset, corner Jacobian rebuilt, and the actuator, controller,
         effects and sensor pipelines reset (both loops start with this)."""
         mujoco.mj_resetData(self.plant.model, self.plant.data)
+        # the trapezoidal scheme's velocities at the last step (loop.trapezoidal_coupling; both loops step it in
+        # place, and reset_cars restarts single cars in it)
+        self.v_prev = np.zeros(self.plant.model.nv)
         self.build_corner_jacobian()
         self.actuator.reset()
         self.controller.reset()
@@ -469,7 +472,14 @@ class System:
         """Restart the components of the cars ``cars`` in the middle of a run (the vectorised env restarting a
         car in place), the other cars untouched: the actuator's and the effects' kernel states back to their
         initial values, and each sensor's pipeline (delay line, sample-and-hold) restarted on ``state``, the
-        true plant quantities of those cars now.  The roads, the noise streams and the controller go on."""
+        true plant quantities of those cars now, and the trapezoidal scheme's last-step velocities of those cars
+        set to their velocities now (no velocity change, as at the start of a run).  The roads, the noise streams
+        and the controller go on."""
+        P = self.plant
+        cars = np.asarray(cars, dtype=np.intp).reshape(-1)
+        for dofs in (P.body_v, P.wheel_v):
+            if dofs is not None:
+                self.v_prev[dofs[cars]] = P.data.qvel[dofs[cars]]
         self.actuator.reset_cars(cars)
         for e, _ in self.effects:
             e.reset_cars(cars)

@@ -57,7 +57,7 @@ def steps(sim, logger, progress=None):
     effects = [(e, sel, len(sel) == nc and bool(np.all(sel == np.arange(nc)))) for e, sel in sim.effects]
     tire_effects = any(e.target == "tire" for e, _ in sim.effects)
     zeros = np.zeros((n, nc))
-    v_prev = np.zeros(m.nv)  # trapezoidal: the velocities at the previous step
+    v_prev = sim.v_prev  # trapezoidal: the velocities at the previous step (System.reset, reset_cars)
     sim.half_cs, sim.half_ct = 0.5 * P.susp_c, 0.5 * P.tire_c
     for k in range(sim.n_steps):
         t = k * sim.dt

@@ -198,18 +198,26 @@ EM = {"type": "electromagnetic", "params": {}}
 HYSTERESIS = {"model": "quarter_car", "effects": [{"type": "hysteresis", "corners": "all", "params": {}}]}
 
 
-@pytest.mark.parametrize("actuator,vehicle", [(None, None), (HYDRAULIC, None), (EM, None),
-                                              (None, HYSTERESIS), (None, {"model": "half_car"})],
-                         ids=["ideal", "hydraulic", "electromagnetic", "hysteresis_effect", "half_car"])
-def test_vector_autoreset_restarts_actuator_and_sensor_memory(actuator, vehicle):
+@pytest.mark.parametrize("actuator,vehicle,integrator,compiled", [
+    (None, None, "implicitfast", True), (HYDRAULIC, None, "implicitfast", True), (EM, None, "implicitfast", True),
+    (None, HYSTERESIS, "implicitfast", True), (None, {"model": "half_car"}, "implicitfast", True),
+    (None, None, "trapezoidal", True), (None, {"model": "half_car"}, "trapezoidal", True),
+    (None, None, "trapezoidal", False)],
+    ids=["ideal", "hydraulic", "electromagnetic", "hysteresis_effect", "half_car", "ideal_trapezoidal",
+         "half_car_trapezoidal", "ideal_trapezoidal_python_loop"])
+def test_vector_autoreset_restarts_actuator_and_sensor_memory(actuator, vehicle, integrator, compiled, monkeypatch):
     """A car that terminates and is restarted in place continues as a fresh env would: on a flat road, at rest,
     its actuator (lag and delay line; hydraulic spool and pressure; coil currents), its effects (the Bouc-Wen
     state) and its sensors (delay lines, sample-and-hold phase) start from their initial state, so its
-    observations after the restart equal those of a freshly reset single env under the same actions.  Before
-    the fix the restarted car's delayed travel and force readings still showed the terminated episode.
-    (implicitfast: the trapezoidal scheme's last-step velocities, held by the loops, are not reset.)"""
+    observations after the restart equal those of a freshly reset single env under the same actions, value by
+    value.  Before the fix the restarted car's delayed travel and force readings still showed the terminated
+    episode; with the trapezoidal scheme, the loops' last-step velocities of the restarted car (the body-wheel
+    damper coupling's Δv) were those of the terminated episode, and the travel was off by ~4e-5 m for a few
+    steps (the compiled loop and the Python loop hold them apart: both are run)."""
+    if not compiled:
+        monkeypatch.setenv("SUSPENSION_SIM_COMPILED", "0")
     kw = {"action_scale": 1000.0} if actuator is EM else {}  # the coil pair has no command limit of its own
-    sc = _lagged_delayed(FLAT, actuator=actuator)
+    sc = _lagged_delayed(FLAT, actuator=actuator, integrator=integrator)
     if vehicle is not None:
         sc["vehicle"] = vehicle
     venv = SuspensionVectorEnv(2, sc, reward={"terminate_travel": 0.01}, **kw)
@@ -231,7 +239,9 @@ def test_vector_autoreset_restarts_actuator_and_sensor_memory(actuator, vehicle)
     got = [venv.step(np.zeros((2, nc), np.float32))[0][0]]
     for a in acts[:-1]:
         got.append(venv.step(np.stack([a, np.zeros(nc, np.float32)]))[0][0])
-    np.testing.assert_allclose(np.array(got), np.array(ref), rtol=1e-9, atol=1e-9)
+    assert venv._core.sim.integrator == fresh.simulation.integrator == integrator
+    assert venv._core.sim.loop == fresh.simulation.loop == ("hybrid" if compiled else "python")
+    np.testing.assert_array_equal(np.array(got), np.array(ref))
 
 
 def test_vector_autoreset_leaves_the_other_cars_alone():

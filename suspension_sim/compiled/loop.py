@@ -775,7 +775,7 @@ def run_steps(sim, mode: str, progress=None, logger=None):
              bool(P.road_dof), m.tendon_lengthspring, _f64(P.tire_rest0 if not P.road_dof else np.zeros((n, nc, 2))),
              _f64(P.tire_ct if not P.road_dof else np.zeros((n, nc))),
              bool(sim.rk4), d.qfrc_applied, d.qacc, float(P.road_mass),
-             bool(sim.trap), _f64(0.5 * P.susp_c), _f64(0.5 * P.tire_c), np.zeros(m.nv), sim.maneuver is not None,
+             bool(sim.trap), _f64(0.5 * P.susp_c), _f64(0.5 * P.tire_c), sim.v_prev, sim.maneuver is not None,
              *_maneuver_joints(sim))
 
     def call(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume):

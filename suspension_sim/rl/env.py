@@ -57,7 +57,7 @@ are put at rest on the road under them and the episode goes on from there with z
 its actuator (lag, delay line, spool and pressure, coil currents), its effects' states and its sensors (delay
 lines, sample-and-hold) start again from their initial state, as in a new env (``System.reset_cars``; the
 other cars are untouched, and the car's road and noise stream go on; the trapezoidal integrator's last-step
-velocities are not reset, a small transient on the first steps, docs/learning.md).  A diverging
+velocities of the car restart too: value by value a new env, docs/learning.md).  A diverging
 car stops the ensemble's run: that car terminates, the others truncate, and all start a new episode.
 """
 from __future__ import annotations
