@@ -68,9 +68,12 @@ class SpeedProfile:
         if isinstance(speed, (int, float)):
             self.const = float(speed)
             self.t = self.x = None
+            self.key = ("const", self.const)
             return
         self.const = None
         pts = np.asarray(speed, dtype=float)
+        # equal keys: the same distance and speed at every time (road_chunk maps such wheels' paths once)
+        self.key = ("table", pts.tobytes(), pts.shape, float(duration), float(dt))
         n_grid = int(np.ceil((duration + 2 * dt) / dt))  # the length of np.arange(0, duration + 2 dt, dt)
         if n_grid > self.MAX_GRID:  # closed form: knots at 0, the table's times inside the run, the end
             t_end = (n_grid - 1) * dt
@@ -385,39 +388,56 @@ class System:
         return out
 
     def road_chunk(self, k0: int, k1: int):
-        """Road height and rate under each wheel for physics steps k0..k1-1: arrays (n, k1-k0, nc)."""
+        """Road height and rate under each wheel for physics steps k0..k1-1: arrays (n, k1-k0, nc), views of
+        step-major arrays (one step's road for all cars is contiguous, as the compiled loop reads it).
+
+        Wheels are grouped by road type, speed law, axle position and track: each group maps its path (distance,
+        corner time) once and asks the road class for the heights and slopes of all its roads at once
+        (:meth:`~suspension_sim.roads.base.Road.height_slopes_many`: one array expression for a closed-form road,
+        however many cars; a road object shared by several cars is evaluated once)."""
         n, nc = self.plant.n, self.plant.nc
         L = k1 - k0
         t = (np.arange(k0 - 1, k1 + 1)) * self.dt  # one extra sample each side (RK4's second differences)
-        z = np.empty((n, L + 2, nc))
-        zd = np.empty((n, L, nc))
-        seen: dict = {}  # a wheel path already evaluated (cars sharing a road, speed and axle position)
-        paths: dict = {}  # distance and speed of each distinct speed profile
+        z = np.empty((L + 2, n, nc))
+        zd = np.empty((L, n, nc))
+        groups: dict = {}  # (road type, speed law, axle offset, track) -> (speed profile, {road: wheels})
         for i, (road, sp) in enumerate(zip(self.roads, self.speeds)):
+            key = getattr(sp, "key", id(sp))
             for c in range(nc):
-                key = (id(road), id(sp), float(self.corner_back[i, c]), self.geom.tracks[c])
-                if key in seen:
-                    j, cj = seen[key]
-                    z[i, :, c] = z[j, :, cj]
-                    zd[i, :, c] = zd[j, :, cj]
-                    continue
-                seen[key] = (i, c)
-                if id(sp) not in paths:
-                    paths[id(sp)] = (sp.distance(t), sp.speed(t[1:-1]))
-                x, v = paths[id(sp)]
-                xc = x - self.corner_back[i, c]
-                if self.corner_back[i, c] == 0:
-                    tc, tc_rate = t, 1.0
-                else:
-                    tc = sp.time_at(xc, t)
-                    tc_rate = sp.time_at_rate(xc[1:-1], t[1:-1])
-                z[i, :, c] = road.height(tc, xc, self.geom.tracks[c])
-                # the exact time derivative of the height this wheel sees (the road's own derivative law),
-                # not a difference over ±dt (whose O(dt²) error on a spline road moved results with the step)
-                zd[i, :, c] = road.rate(tc[1:-1], xc[1:-1], self.geom.tracks[c], tc_rate, v)
+                g = groups.setdefault((type(road), key, float(self.corner_back[i, c]), self.geom.tracks[c]), (sp, {}))
+                g[1].setdefault(id(road), (road, []))[1].append((i, c))
+        paths: dict = {}  # distance and speed of each distinct speed law
+        for (rcls, key, back, track), (sp, members) in groups.items():
+            if key not in paths:
+                paths[key] = (sp.distance(t), sp.speed(t[1:-1]))
+            x, v = paths[key]
+            xc = x - back
+            if back == 0:
+                tc, tc_rate = t, 1.0
+            else:
+                tc = sp.time_at(xc, t)
+                tc_rate = sp.time_at_rate(xc[1:-1], t[1:-1])
+            roads = [r for r, _ in members.values()]
+            h, zt, zx = rcls.height_slopes_many(roads, tc, xc, track)
+            # the exact time derivative of the height each wheel sees (Road.rate: the road's own derivative
+            # law), not a difference over ±dt (whose O(dt²) error on a spline road moved results with the step)
+            rate = zt[:, 1:-1] * tc_rate + zx[:, 1:-1] * v
+            wheels = [w for _, ws in members.values() for w in ws]
+            cars = np.fromiter((i for i, _ in wheels), np.intp, len(wheels))
+            corners = np.fromiter((c for _, c in wheels), np.intp, len(wheels))
+            if len(wheels) != len(roads):  # a road shared by several wheels: its row for each
+                rows = np.repeat(np.arange(len(roads)), [len(ws) for _, ws in members.values()])
+                h, rate = h[rows], rate[rows]
+            if nc == 1 and len(wheels) == n and np.array_equal(cars, np.arange(n)):
+                z[:, :, 0] = h.T
+                zd[:, :, 0] = rate.T
+            else:
+                z[:, cars, corners] = h.T
+                zd[:, cars, corners] = rate.T
+        zc, zdc = z[1:-1].transpose(1, 0, 2), zd.transpose(1, 0, 2)
         if self.rk4:  # RK4 also prescribes the plates' acceleration within a step
-            return z[:, 1:-1, :], zd, (z[:, 2:, :] - 2 * z[:, 1:-1, :] + z[:, :-2, :]) / self.dt ** 2
-        return z[:, 1:-1, :], zd
+            return zc, zdc, ((z[2:] - 2 * z[1:-1] + z[:-2]) / self.dt ** 2).transpose(1, 0, 2)
+        return zc, zdc
 
     def apply_variations(self, t: float):
         """Every time-varying parameter at time ``t`` (both loops call this at each control instant)."""

@@ -19,20 +19,21 @@ from ..components import Params
 from .base import Road
 
 
-def cosine_window(s, length: float) -> np.ndarray:
-    """0 for s ≤ 0, ½(1 − cos(π s/length)) for 0 < s < length, 1 beyond (a step if length = 0)."""
+def cosine_window(s, length) -> np.ndarray:
+    """0 for s ≤ 0, ½(1 − cos(π s/length)) for 0 < s < length, 1 beyond (a step if length = 0).  ``length``:
+    a number, or an array of positive lengths broadcasting with ``s`` (several roads at once)."""
     s = np.asarray(s, dtype=float)
-    if length <= 0:
+    if np.ndim(length) == 0 and length <= 0:
         return (s >= 0).astype(float)
     u = np.clip(s / length, 0.0, 1.0)
     return 0.5 * (1.0 - np.cos(np.pi * u))
 
 
-def cosine_window_rate(s, length: float) -> np.ndarray:
+def cosine_window_rate(s, length) -> np.ndarray:
     """d/ds of :func:`cosine_window`: ½(π/length)·sin(π s/length) for 0 < s < length, 0 elsewhere (a step's
-    derivative, an impulse, is left out: 0 everywhere for length = 0)."""
+    derivative, an impulse, is left out: 0 everywhere for length = 0); ``length`` as in :func:`cosine_window`."""
     s = np.asarray(s, dtype=float)
-    if length <= 0:
+    if np.ndim(length) == 0 and length <= 0:
         return np.zeros_like(s)
     inside = (s > 0) & (s < length)
     return np.where(inside, 0.5 * np.pi / length * np.sin(np.pi * np.clip(s / length, 0.0, 1.0)), 0.0)

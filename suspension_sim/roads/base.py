@@ -62,3 +62,23 @@ class Road:
         wheel sees (both loops read it through :meth:`System.road_chunk`)."""
         zt, zx = self.slopes(t, x, track)
         return zt * t_rate + zx * x_rate
+
+    def height_slopes(self, t: np.ndarray, x: np.ndarray, track: int = 0):
+        """(:meth:`height`, ∂z/∂t, ∂z/∂x) at the same samples, the same numbers as :meth:`height` and
+        :meth:`slopes`: the loops need both for every wheel and chunk, and a road whose height and slopes
+        share work (one evaluation of a closed form, one spline lookup) overrides this to do it once."""
+        zt, zx = self.slopes(t, x, track)
+        return self.height(t, x, track), zt, zx
+
+    @classmethod
+    def height_slopes_many(cls, roads: list, t: np.ndarray, x: np.ndarray, track: int = 0):
+        """:meth:`height_slopes` of several roads of this class on the same samples ``t``, ``x`` (1-D): three
+        arrays ``(len(roads), samples)``, row k the numbers of ``roads[k]`` alone.  This default evaluates the
+        roads one by one; a closed-form road evaluates them together, its parameters as columns (an
+        ensemble's cars differ in amplitude or frequency, not in the law)."""
+        shape = (len(roads), np.broadcast(np.asarray(t), np.asarray(x)).size)
+        out = tuple(np.empty(shape) for _ in range(3))
+        for k, road in enumerate(roads):
+            for a, v in zip(out, road.height_slopes(t, x, track)):
+                a[k] = v
+        return out

@@ -37,17 +37,58 @@ class Sine(Road):
             s, k = np.asarray(t, dtype=float) - p.start, 2 * np.pi * p.frequency
         else:
             s, k = np.asarray(x, dtype=float) - p.start, 2 * np.pi / p.wavelength
-        arg = k * s + p.phase
-        z = p.amplitude * (np.sin(arg) - np.sin(p.phase))
-        dz = p.amplitude * k * np.cos(arg)
-        if p.fade_in > 0:
-            z, dz = z * cosine_window(s, p.fade_in), dz * cosine_window(s, p.fade_in) + z * cosine_window_rate(
-                s, p.fade_in)
-        return s, np.where(s >= 0, z, 0.0), edge_weight(s) * dz
+        return sine_law(s, p.amplitude, k, p.phase, p.fade_in if p.fade_in > 0 else None)
 
     def height(self, t, x, track=0):
-        return self._law(t, x)[1]
+        return self._law(t, x)[0]
 
     def slopes(self, t, x, track=0):
-        dz = self._law(t, x)[2]
+        dz = self._law(t, x)[1]
         return (dz, np.zeros_like(dz)) if self.p.frequency is not None else (np.zeros_like(dz), dz)
+
+    def height_slopes(self, t, x, track=0):
+        z, dz = self._law(t, x)
+        return (z, dz, np.zeros_like(dz)) if self.p.frequency is not None else (z, np.zeros_like(dz), dz)
+
+    @classmethod
+    def height_slopes_many(cls, roads, t, x, track=0):
+        """Every road's law at once: the parameters as columns, one array expression per kind (temporal or
+        spatial, with or without a fade-in); the numbers of each road alone (elementwise the same operations)."""
+        kinds: dict = {}
+        for k, r in enumerate(roads):
+            kinds.setdefault((r.p.frequency is not None, r.p.fade_in > 0), []).append(k)
+        out = None
+        for (temporal, fade), idx in kinds.items():
+            ps = [roads[k].p for k in idx]
+
+            def col(name):
+                return np.array([getattr(p, name) for p in ps], dtype=float)[:, None]
+
+            if temporal:
+                s, k = np.asarray(t, dtype=float)[None, :] - col("start"), 2 * np.pi * col("frequency")
+            else:
+                s, k = np.asarray(x, dtype=float)[None, :] - col("start"), 2 * np.pi / col("wavelength")
+            z, dz = sine_law(s, col("amplitude"), k, col("phase"), col("fade_in") if fade else None)
+            zero = np.zeros_like(dz)
+            res = (z, dz, zero) if temporal else (z, zero, dz)
+            if len(kinds) == 1:
+                return res
+            if out is None:
+                out = tuple(np.empty((len(roads), s.shape[1])) for _ in range(3))
+            for a, v in zip(out, res):
+                a[idx] = v
+        return out
+
+
+def sine_law(s, amplitude, k, phase, fade_in):
+    """(height, d height/ds) of A·(sin(k s + φ) − sin φ) for s ≥ 0 (0 before), times a cosine fade-in of
+    ``fade_in`` (None: none); the parameters are numbers, or columns broadcasting with ``s`` (many roads)."""
+    arg = k * s + phase
+    z = amplitude * (np.sin(arg) - np.sin(phase))
+    dz = amplitude * k * np.cos(arg)
+    if fade_in is not None:
+        w = cosine_window(s, fade_in)
+        z, dz = z * w, dz * w + z * cosine_window_rate(s, fade_in)
+    if np.all(s > 0):  # after the start (every chunk but the first): edge_weight is 1, the where a no-op
+        return z, dz
+    return np.where(s >= 0, z, 0.0), edge_weight(s) * dz
