@@ -478,6 +478,14 @@ class System:
         for j, ch in enumerate(self.sensors):
             ch.rng = self.sensor_rng(j, ch.rng)  # the noise streams start over too: a run started again repeats
             ch.reset()
+        # the period-mean accelerometers (sensors.base.period_mean_acc): the body and wheel dofs, their
+        # velocities at the last control instant (before the first: the initial ones) and the means
+        P = self.plant
+        self.acc_dofs = np.ascontiguousarray(np.concatenate([d.ravel() for d in (P.body_v, P.wheel_v) if d is not None]),
+                                             dtype=np.int64)
+        self.v_ctrl = P.data.qvel.copy()
+        self.acc_mean = np.zeros(P.model.nv)
+        self.acc_period = self.sub * self.dt
 
     def sensor_rng(self, j: int, current=None) -> "PerCarRNG":
         """The noise generator of sensor ``j`` at the start of a run: one stream per car, seeded by the car's
@@ -493,13 +501,15 @@ class System:
         car in place), the other cars untouched: the actuator's and the effects' kernel states back to their
         initial values, and each sensor's pipeline (delay line, sample-and-hold) restarted on ``state``, the
         true plant quantities of those cars now, and the trapezoidal scheme's last-step velocities of those cars
-        set to their velocities now (no velocity change, as at the start of a run).  The roads, the noise streams
+        set to their velocities now (no velocity change, as at the start of a run), as are their velocities at the
+        last control instant (the period-mean accelerometers' start).  The roads, the noise streams
         and the controller go on."""
         P = self.plant
         cars = np.asarray(cars, dtype=np.intp).reshape(-1)
         for dofs in (P.body_v, P.wheel_v):
             if dofs is not None:
                 self.v_prev[dofs[cars]] = P.data.qvel[dofs[cars]]
+                self.v_ctrl[dofs[cars]] = P.data.qvel[dofs[cars]]  # their period means start from now
         self.actuator.reset_cars(cars)
         for e, _ in self.effects:
             e.reset_cars(cars)

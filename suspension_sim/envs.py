@@ -55,7 +55,7 @@ from dm_env import specs
 
 from .config import Scenario, load_scenario, pick_variant
 from .loop import plant_state
-from .sensors.base import full_state_readings
+from .sensors.base import full_state_readings, period_mean_acc
 from .simulation import Simulation
 
 
@@ -164,7 +164,8 @@ class SuspensionPhysics(_engine.Physics):
         P.place_road(d, road, road_vel)
         mujoco.mj_step1(m, d)
         P.restore_road()
-        state = plant_state(sim, k * sim.dt, road, road_vel, acc, F_act, F_teff)
+        period_mean_acc(d.qvel, sim.v_ctrl, sim.acc_dofs, sim.acc_period, sim.acc_mean)
+        state = plant_state(sim, k * sim.dt, road, road_vel, acc, F_act, F_teff, sim.acc_mean)
         readings = {ch.name: ch.sample(state) for ch in sim.sensors}
         if sim.full_state:
             readings.update(full_state_readings(state))

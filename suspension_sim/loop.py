@@ -25,7 +25,7 @@ import mujoco
 import numpy as np
 
 from .errors import SimulationDiverged
-from .sensors.base import PlantState, full_state_readings
+from .sensors.base import PlantState, full_state_readings, period_mean_acc
 
 
 def steps(sim, logger, progress=None):
@@ -85,7 +85,8 @@ def steps(sim, logger, progress=None):
         if control_now:
             sim.last_forces = (F_act, F_eff, F_teff)
             check_divergence(sim, t, d)
-            state = plant_state(sim, t, road, road_vel, acc, F_act, F_teff)
+            period_mean_acc(d.qvel, sim.v_ctrl, sim.acc_dofs, sim.acc_period, sim.acc_mean)
+            state = plant_state(sim, t, road, road_vel, acc, F_act, F_teff, sim.acc_mean)
             command, readings = yield from exchange(sim, t, state)
         travel = S.susp_len.get()
         rate = S.susp_vel.get()
@@ -168,14 +169,18 @@ def exchange(sim, t, state):
     return command, readings
 
 
-def plant_state(sim, t, road, road_vel, acc, F_act, F_tire_eff) -> PlantState:
-    """The true plant quantities at time ``t`` (read from MuJoCo after ``mj_step1``) that the sensors sample."""
+def plant_state(sim, t, road, road_vel, acc, F_act, F_tire_eff, acc_mean=None) -> PlantState:
+    """The true plant quantities at time ``t`` (read from MuJoCo after ``mj_step1``) that the sensors sample;
+    ``acc`` is the last physics step's acceleration, ``acc_mean`` (all dofs; None: zero) the mean over the
+    control period ending at ``t`` (:func:`~suspension_sim.sensors.base.period_mean_acc`)."""
     P, d = sim.plant, sim.plant.data
     travel = d.ten_length[P.susp_t]
     travel_rate = d.ten_velocity[P.susp_t]
     wheel_pos = d.qpos[P.wheel_q]
     wheel_vel = d.qvel[P.wheel_v]
     wheel_acc = acc[P.wheel_v] if P.has_tire else np.zeros_like(travel)
+    if acc_mean is None:
+        acc_mean = np.zeros_like(acc)
     if P.has_tire:
         tl, tr = P.tire_deflection(d, road, road_vel)
         tire = -sim.kt * tl - sim.ct * tr + F_tire_eff
@@ -187,6 +192,8 @@ def plant_state(sim, t, road, road_vel, acc, F_act, F_tire_eff) -> PlantState:
         corner_body_acc=sim.corner_body_acc(acc),
         wheel_pos=wheel_pos, wheel_vel=wheel_vel, wheel_acc=wheel_acc, travel=travel, travel_rate=travel_rate,
         road=road, road_vel=road_vel, tire_force=tire, actuator_force=F_act,
+        body_acc_mean=acc_mean[P.body_v], corner_body_acc_mean=sim.corner_body_acc(acc_mean),
+        wheel_acc_mean=acc_mean[P.wheel_v] if P.has_tire else np.zeros_like(travel),
         actuator_states=sim.actuator.states())
     if any(ch.sensor.name == "road_preview" for ch in sim.sensors):
         st.extra["road_preview"] = lambda dist: sim.road_preview(t, dist)

@@ -35,12 +35,12 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-TEMPLATE_VERSION = 18
+TEMPLATE_VERSION = 19
 
 # PlantState fields a compiled sensor may read (Sensor.kernel_field), by code
 FIELDS = ("body_pos", "body_vel", "body_acc", "corner_body_pos", "corner_body_vel", "corner_body_acc",
           "wheel_pos", "wheel_vel", "wheel_acc", "travel", "travel_rate", "road", "road_vel", "tire_force",
-          "actuator_force", "actuator_state")
+          "actuator_force", "actuator_state", "body_acc_mean", "corner_body_acc_mean", "wheel_acc_mean")
 PRE = 1 << 40  # the loop's return code before a control instant with time-varying parameters (PRE + k)
 # rows of the per-quantity log column table
 LOG_ROWS = ("body_pos", "body_vel", "body_acc", "travel", "travel_rate", "wheel_z", "wheel_vel", "tire_force",
@@ -95,7 +95,8 @@ def _source_digest() -> str:
     if _DIGEST is None:
         h = hashlib.sha256(str(TEMPLATE_VERSION).encode())
         root = Path(__file__).resolve().parents[2]
-        for sub in ("suspension_sim/effects", "suspension_sim/actuators", "suspension_sim/compiled", "controllers"):
+        for sub in ("suspension_sim/effects", "suspension_sim/actuators", "suspension_sim/compiled", "suspension_sim/sensors",
+                    "controllers"):
             for f in sorted((root / sub).glob("*.py")):
                 h.update(f.name.encode())
                 h.update(f.read_bytes())
@@ -127,7 +128,7 @@ def _cache_dir() -> Path:
         return d
 
 
-_FIELD_ARGS = ("i, jr, qpos, qvel, ten_len, ten_vel, acc, body_q, body_v, wheel_q, wheel_v, susp_t, tire_t, has_tire, "
+_FIELD_ARGS = ("i, jr, qpos, qvel, ten_len, ten_vel, acc, accm, body_q, body_v, wheel_q, wheel_v, susp_t, tire_t, has_tire, "
                "road_z, road_zd, kt, ct, Jb, F_act, F_teff, a_st, road_dof")
 
 
@@ -154,7 +155,7 @@ def generate_source(effects, actuator, controller, sensors=()) -> str:
     (module, advance)) and ``controller`` ((module, name) or None for the hybrid loop)."""
     imp = ["import numpy as np", "from numba import njit",
            "from suspension_sim.compiled.mj import mj_step1, mj_step2, mj_step, mj_forwardSkip",
-           "from suspension_sim.sensors.base import measure", "from suspension_sim.compiled.views import row"]
+           "from suspension_sim.sensors.base import measure, period_mean_acc", "from suspension_sim.compiled.views import row"]
     for k, (mod, name, _) in enumerate(effects):
         imp.append(f"from {mod} import {name} as eff{k}")
     (am, af), (am2, aa) = actuator
@@ -186,7 +187,7 @@ ACC_READ = {acc_read}  # a sensor reads an acceleration
 
 
 @njit(cache=True, inline="always")
-def field_value(f, col, aux, i, jr, qpos, qvel, ten_len, ten_vel, acc, body_q, body_v, wheel_q, wheel_v, susp_t,
+def field_value(f, col, aux, i, jr, qpos, qvel, ten_len, ten_vel, acc, accm, body_q, body_v, wheel_q, wheel_v, susp_t,
                 tire_t, has_tire, road_z, road_zd, kt, ct, Jb, F_act, F_teff, a_st, road_dof):
     if f == 0:
         return qpos[body_q[i, col]]
@@ -228,6 +229,15 @@ def field_value(f, col, aux, i, jr, qpos, qvel, ten_len, ten_vel, acc, body_q, b
         return 0.0
     if f == 14:
         return F_act[i, col]
+    if f == 16:  # the period means (sampling: period_mean), as fields 2, 5, 8 of the last step's acceleration
+        return accm[body_v[i, col]]
+    if f == 17:
+        s = 0.0
+        for b in range(body_v.shape[1]):
+            s += Jb[i, col, b] * accm[body_v[i, b]]
+        return s
+    if f == 18:
+        return accm[wheel_v[i, col]] if has_tire else 0.0
     return a_st[i, col, aux]
 
 
@@ -235,7 +245,8 @@ def field_value(f, col, aux, i, jr, qpos, qvel, ten_len, ten_vel, acc, body_q, b
 def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
          road_q, road_v, road_servo, susp_t, tire_t, eff_s, eff_t, act, wheel_q, wheel_v, body_q, body_v,
          free_q, free_v, has_tire, has_effects, has_tire_effects, kt, ct, Jb, road_dof, lsp, rest0, tire_ct,
-         rk4, qfrc, qacc, road_mass, trap, half_cs, half_ct, v_prev, has_man, pitch_v, roll_v,
+         rk4, qfrc, qacc, road_mass, trap, half_cs, half_ct, v_prev, has_man, pitch_v, roll_v, acc_dofs, v_ctrl, accm,
+         acc_period,
          road_z, road_zd, road_zdd, man_p, man_r, k_chunk0, k0, k1, resume, var_hook, full_control, n_steps, sub, log_every, dt, lim_x, lim_v,
          cmd, F_act, F_eff, F_teff, acc, v_before, sv, a_p, a_st,
          sens_field, sens_cols, sens_aux, sens_off, sens_k, sens_delay, sens_hold, sens_bias, sens_std, sens_q,
@@ -302,6 +313,7 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                         bad = True
                 if bad:
                     return -(k + 1)
+                period_mean_acc(qvel, v_ctrl, acc_dofs, acc_period, accm)  # as loop.steps, before the sensors
                 if not full_control:
                     return k
                 # sensors: true value -> delay -> bias + noise -> quantisation -> sample-and-hold
@@ -776,7 +788,7 @@ def run_steps(sim, mode: str, progress=None, logger=None):
              _f64(P.tire_ct if not P.road_dof else np.zeros((n, nc))),
              bool(sim.rk4), d.qfrc_applied, d.qacc, float(P.road_mass),
              bool(sim.trap), _f64(0.5 * P.susp_c), _f64(0.5 * P.tire_c), sim.v_prev, sim.maneuver is not None,
-             *_maneuver_joints(sim))
+             *_maneuver_joints(sim), sim.acc_dofs, sim.v_ctrl, sim.acc_mean, float(sim.acc_period))
 
     def call(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume):
         return mod.loop(*fixed, road_z, road_zd, road_zdd, man_p, man_r, k_chunk0, k, k1, resume, bool(sim.variations), full, sim.n_steps, sim.sub,
@@ -841,7 +853,8 @@ def run_steps(sim, mode: str, progress=None, logger=None):
             t = k * sim.dt
             jr = k - k_chunk0
             sim.last_forces = (F_act.copy(), F_eff.copy(), F_teff.copy())
-            state = plant_state(sim, t, road_z[jr].copy(), road_zd[jr].copy(), acc, F_act.copy(), F_teff.copy())
+            state = plant_state(sim, t, road_z[jr].copy(), road_zd[jr].copy(), acc, F_act.copy(), F_teff.copy(),
+                                sim.acc_mean)
             states = {nm: a_st[:, :, a_idx[nm]].copy() for nm in act_names}
             states["force"] = F_act.copy()
             state.actuator_states = states

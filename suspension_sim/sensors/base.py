@@ -27,7 +27,9 @@ class PlantState:
 
     ``body_*`` are the body degrees of freedom in the order of the model's body joints (heave in m,
     pitch/roll in rad); ``corner_*`` the body point above each corner; accelerations are those of the last
-    physics step (a real accelerometer's sample precedes the force computed from it).
+    physics step (a real accelerometer's sample precedes the force computed from it), and the ``*_acc_mean``
+    fields their means over the last control period (:func:`period_mean_acc`; the accelerometers'
+    ``sampling: period_mean``).
     """
 
     t: float
@@ -46,6 +48,9 @@ class PlantState:
     road_vel: np.ndarray
     tire_force: np.ndarray
     actuator_force: np.ndarray
+    body_acc_mean: np.ndarray | None = None
+    corner_body_acc_mean: np.ndarray | None = None
+    wheel_acc_mean: np.ndarray | None = None
     actuator_states: dict = field(default_factory=dict)
     extra: dict = field(default_factory=dict)  # e.g. road preview, maneuver signals
 
@@ -106,6 +111,19 @@ class Sensor:
 
 
 @numba.njit(cache=True)
+def period_mean_acc(qvel, v_last, dofs, period, out):
+    """The accelerometers' ``sampling: period_mean`` law, at a control instant, for every dof ``j`` of
+    ``dofs``: ``out[j] = (qvel[j] − v_last[j]) / period``, the mean acceleration over the control period that
+    ends now (``v_last`` holds the velocities at the previous control instant, or the initial ones), then
+    ``v_last[j] = qvel[j]``.  Both loops call it (the Python loop before :func:`~suspension_sim.loop.plant_state`,
+    the compiled loop before its sensors), so the readings are the same."""
+    for q in range(dofs.shape[0]):
+        j = dofs[q]
+        out[j] = (qvel[j] - v_last[j]) / period
+        v_last[j] = qvel[j]
+
+
+@numba.njit(cache=True)
 def measure(value, bias, noise, quantization):
     """The measurement law after the delay, for one reading: ``value + bias + noise``, then rounded to the
     nearest multiple of ``quantization`` (when > 0).  The compiled loop inlines it; the Python loop calls
@@ -134,6 +152,12 @@ class SensorChannel:
         self.rng = rng
         self.delay_steps = int(round(cfg.delay / control_dt))
         self.hold_steps = max(1, int(round((1.0 / cfg.rate) / control_dt))) if cfg.rate else 1
+        field = sensor.kernel_field()
+        if self.hold_steps > 1 and field is not None and field[0].endswith("_acc_mean"):
+            from ..errors import ScenarioError
+
+            raise ScenarioError(f"sensor {cfg.name!r}: sampling: period_mean averages over the control period; "
+                                "a rate below the control rate is not supported", field="sensors.rate")
         self.reset()
 
     def reset(self):
