@@ -218,3 +218,41 @@ def test_trapezoidal_compiled_is_bit_identical(monkeypatch):
     _, rp = _run(scs, False, monkeypatch)
     assert sim_c.loop == "full"
     _assert_same(rp[0], rc[0])
+
+
+def test_metrics_only_logging_equals_the_full_log(monkeypatch):
+    """A batch without time series logs only the channels the metrics read (the others' tables are dropped):
+    those channels and every metric equal the run that logs everything, bit for bit."""
+    scs = _bench_like(3)
+    monkeypatch.setenv("SUSPENSION_SIM_COMPILED", "1")
+    full = Simulation(scs).run()
+    sim = Simulation(scs, log_channels="metrics")
+    part = sim.run()
+    assert sim.loop == "full"
+    for a, b in zip(full, part):
+        kept = list(b.ts.columns)
+        assert 3 <= len(kept) < len(a.ts.columns) and not any(c.startswith(("ctrl.", "sensor.", "act.")) for c in kept)
+        assert a.ts[kept].equals(b.ts)
+        assert a.metrics == b.metrics
+
+
+def test_shared_parameter_rows_and_logged_tables():
+    """The loop reads each car's kernel parameters through one row per distinct parameter set (bit for bit: -0.0
+    and 0.0 are different rows, equal NaNs one); and the log tables keep the rows that log anything."""
+    from suspension_sim.compiled.loop import _logged, _shared_rows
+
+    a = np.zeros((6, 2, 3))
+    a[1, 0, 0] = -0.0
+    a[2] = a[4] = np.nan
+    a[3, 1, 2] = 7.0
+    rows, idx = _shared_rows(a)
+    assert len(rows) == 4 and idx.dtype == np.int64 and rows.flags.c_contiguous
+    assert rows[idx].tobytes() == a.tobytes()
+    assert idx[0] == idx[5] and idx[2] == idx[4] and len({idx[0], idx[1], idx[2], idx[3]}) == 4
+    one, idx1 = _shared_rows(np.ones((5, 4)))
+    assert one.shape == (1, 4) and not idx1.any()
+    lc = np.array([[9, 9], [3, 9], [9, 9], [4, 5]])
+    kept, (src,) = _logged(lc, 9, np.array([10, 11, 12, 13]))
+    assert kept.tolist() == [[3, 9], [4, 5]] and src.tolist() == [11, 13]
+    kept, (src,) = _logged(np.array([9, 2, 9]), 9, np.arange(3))
+    assert kept.tolist() == [2] and src.tolist() == [1]

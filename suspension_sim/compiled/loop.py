@@ -163,21 +163,21 @@ def generate_source(effects, actuator, controller, sensors=()) -> str:
     imp.append(f"from {am2} import {aa} as act_advance")
     if controller is not None:
         imp.append(f"from {controller[0]} import {controller[1]} as ctrl_kernel")
-    eargs = "".join(f", e{k}_p, e{k}_st, e{k}_map, e{k}_sigj, e{k}_lc" for k in range(len(effects)))
+    eargs = "".join(f", e{k}_p, e{k}_st, e{k}_map, e{k}_sigj, e{k}_lc, e{k}_pi" for k in range(len(effects)))
     susp_calls, tire_calls, sig_logs = [], [], []
     for k, (_, _, target) in enumerate(effects):
         ind = " " * (24 if target == "tire" else 20)
         call = (f"{ind}jj = e{k}_map[c]\n"
                 f"{ind}if jj >= 0:\n"
                 f"{ind}    {'f' if target != 'tire' else 'ft'} += eff{k}("
-                f"{'s, v' if target != 'tire' else 'tl, tv'}, t, dt, row(row(e{k}_p, i), jj), row(row(e{k}_st, i), jj))\n")
+                f"{'s, v' if target != 'tire' else 'tl, tv'}, t, dt, row(row(e{k}_p, e{k}_pi[i]), jj), row(row(e{k}_st, i), jj))\n")
         (tire_calls if target == "tire" else susp_calls).append(call)
         sig_logs.append(
             f"                for q in range(e{k}_sigj.shape[0]):\n"
             f"                    for jj in range(e{k}_lc.shape[1]):\n"
             f"                        Lr[e{k}_lc[q, jj]] = e{k}_st[i, jj, e{k}_sigj[q]]\n")
     sensor_block = "".join(_sensor_code(sc, f, simple) for sc, (f, simple) in enumerate(sensors))
-    ctrl_block = ("                ctrl_kernel(t, row(y, i), row(c_p, i), row(c_st, i), row(cmd, i))\n" if controller is not None
+    ctrl_block = ("                ctrl_kernel(t, row(y, i), row(c_p, c_pi[i]), row(c_st, i), row(cmd, i))\n" if controller is not None
                   else "")
     acc_read = any(f in (FIELDS.index("body_acc"), FIELDS.index("corner_body_acc"), FIELDS.index("wheel_acc"))
                    for f, _ in sensors)
@@ -248,10 +248,10 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
          rk4, qfrc, qacc, road_mass, trap, half_cs, half_ct, v_prev, has_man, pitch_v, roll_v, acc_dofs, v_ctrl, accm,
          acc_period,
          road_z, road_zd, road_zdd, man_p, man_r, k_chunk0, k0, k1, resume, var_hook, full_control, n_steps, sub, log_every, dt, lim_x, lim_v,
-         cmd, F_act, F_eff, F_teff, acc, v_before, sv, a_p, a_st,
+         cmd, F_act, F_eff, F_teff, acc, v_before, sv, a_p, a_pi, a_st,
          sens_field, sens_cols, sens_aux, sens_off, sens_k, sens_delay, sens_hold, sens_bias, sens_std, sens_q,
-         noise, noise_off, ring, sens_tmp, y, kc_arr, c_p, c_st,
-         L, log0, LC, lc_act, act_j, lc_y, lc_ctrl, ctrl_j{eargs}):
+         noise, noise_off, ring, sens_tmp, y, kc_arr, c_p, c_pi, c_st,
+         L, log0, LC, lc_act, act_j, lc_y, y_j, lc_ctrl, ctrl_j{eargs}):
     """Physics steps k0..k1-1 (road samples of step k at road_z[k - k_chunk0]).  Returns k1 when done,
     k (>= 0) at a control instant that Python must handle (hybrid loop, after mj_step1 of step k: call again
     with resume=1 from k), -(k + 1) when the state check at control instant k fails, or PRE + k before
@@ -365,7 +365,7 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                 v = ten_vel[susp_t[i, c]]
                 sv[i, c, 0] = s
                 sv[i, c, 1] = v
-                Fa = act_force(cmd[i, c], s, v, t, dt, row(row(a_p, i), c), row(row(a_st, i), c))
+                Fa = act_force(cmd[i, c], s, v, t, dt, row(row(a_p, a_pi[i]), c), row(row(a_st, i), c))
                 F_act[i, c] = Fa
                 if has_effects:
                     f = 0.0
@@ -416,7 +416,7 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                     for c in range(nc):
                         Lr[lc_act[q, c]] = a_st[i, c, act_j[q]]
                 for q in range(lc_y.shape[0]):
-                    Lr[lc_y[q]] = y[i, q]
+                    Lr[lc_y[q]] = y[i, y_j[q]]
                 for q in range(lc_ctrl.shape[0]):
                     Lr[lc_ctrl[q]] = c_st[i, ctrl_j[q]]
 {''.join(sig_logs)}            if need_acc and not rk4:
@@ -428,7 +428,7 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
             # the actuator's state for the next step (MuJoCo's step does not read it: advanced before the step
             # as after it)
             for c in range(nc):
-                act_advance(cmd[i, c], sv[i, c, 0], sv[i, c, 1], t, dt, row(row(a_p, i), c), row(row(a_st, i), c))
+                act_advance(cmd[i, c], sv[i, c, 0], sv[i, c, 1], t, dt, row(row(a_p, a_pi[i]), c), row(row(a_st, i), c))
         if ctrl_now:
             kc_arr[0] = kc + 1
         if rk4:
@@ -490,6 +490,31 @@ def load_module(effects, actuator, controller, sensors=()):
         spec.loader.exec_module(mod)
         _MODULES[key] = mod
     return mod
+
+
+def _shared_rows(a):
+    """(rows, index): the distinct rows of a kernel's per-car parameter block ``a`` (n_cars, ...), compared bit
+    for bit, and each car's row in them (``rows[index[i]]`` is ``a[i]``; the loop reads ``row(rows, index[i])``).
+    The cars of a batch mostly share their components' parameters (often only the road differs): one row read
+    by all cars stays in the L1 cache, where a row per car (the MRAC's is 1.2 KB) is fetched from further out
+    at every call, evicted by MuJoCo's step of the whole ensemble.  The same numbers are read: results are
+    unchanged.  ``p`` is read-only for the kernels (the protocol); an effect's time-varying parameters rewrite
+    its ``p`` during a run, so those are not shared (the caller's choice)."""
+    n = a.shape[0]
+    flat = a.reshape(n, -1)
+    if n <= 1 or flat.shape[1] == 0:
+        return np.ascontiguousarray(a[:1]), np.zeros(n, np.int64)
+    keys = np.ascontiguousarray(flat).view(np.dtype((np.void, flat.shape[1] * flat.itemsize))).reshape(n)
+    _, first, index = np.unique(keys, return_index=True, return_inverse=True)
+    return np.ascontiguousarray(a[first]), np.ascontiguousarray(index.reshape(n), dtype=np.int64)
+
+
+def _logged(lc, scratch, *src):
+    """The rows of the log column table ``lc`` (one row per source: a column, or a column per corner) that log at
+    least one column other than ``scratch``, and the same rows of each source index array in ``src``."""
+    lc = np.asarray(lc, dtype=np.int64)
+    keep = (lc != scratch).reshape(len(lc), -1).any(axis=1) if len(lc) else np.zeros(0, bool)
+    return np.ascontiguousarray(lc[keep]), tuple(np.ascontiguousarray(np.asarray(j, dtype=np.int64)[keep]) for j in src)
 
 
 def _i64(a):
@@ -649,7 +674,7 @@ def run_steps(sim, mode: str, progress=None, logger=None):
             sim.loop_reason = f"controller {ctrl.name!r}: {exc}" if str(exc) else f"controller {ctrl.name!r} has no kernel here"
 
     # component data ----------------------------------------------------------------------------------
-    effects, eff_args, eff_sigs = [], [], []
+    effects, eff_args, eff_sigs, eff_pi = [], [], [], []
     for eff, sel in sim.effects:
         fn = type(eff).kernel
         mod, name = _kernel_ref(fn)
@@ -659,11 +684,16 @@ def run_steps(sim, mode: str, progress=None, logger=None):
         cmap[np.asarray(sel)] = np.arange(len(sel))
         sig = eff.kernel_signals()
         names = [nm for nm in eff.signals() if nm in sig]
-        eff_args.append([_f64(p), _f64(st), cmap, np.array([sig[nm] for nm in names], dtype=np.int64)])
+        pe, pi = _f64(p), np.arange(n, dtype=np.int64)
+        if not sim.variations:  # else set_param rewrites p during the run: the loop reads it as it is
+            pe, pi = _shared_rows(pe)
+        eff_args.append([pe, _f64(st), cmap, np.array([sig[nm] for nm in names], dtype=np.int64)])
+        eff_pi.append(pi)
         eff_sigs.append((eff.label, names, len(sel)))
     act = sim.actuator
     actuator = (_kernel_ref(type(act).kernel_force), _kernel_ref(type(act).kernel_advance))
     a_p, a_st = (_f64(x) for x in act.kernel_data())
+    a_p, a_pi = _shared_rows(a_p)
     a_idx = act.kernel_states()
     act_names = [nm for nm in act.states() if nm != "force"]
     missing = [nm for nm in act_names if nm not in a_idx]
@@ -719,12 +749,14 @@ def run_steps(sim, mode: str, progress=None, logger=None):
         maxd = int(sens["delay"].max()) if ns else 0
         ring = np.zeros((n, max(ns, 1), maxd + 1, maxk))
         c_p, c_st = (_f64(x) for x in ctrl_data)
+        c_p, c_pi = _shared_rows(c_p)
         csig = ctrl.kernel_signals()
         ctrl_widths = [(nm, b - a) for nm, (a, b) in csig.items()]
         ctrl_j = np.array([j for a, b in csig.values() for j in range(a, b)], dtype=np.int64)
     else:
         sens_cols, noise, ring, ytot = np.zeros((ns, 1), np.int64), np.zeros((n, 1)), np.zeros((n, 1, 1, 1)), 0
         c_p, c_st, ctrl_widths, ctrl_j = np.zeros((n, 1)), np.zeros((n, 0)), [], np.zeros(0, np.int64)
+        c_p, c_pi = _shared_rows(c_p)
 
     sens_tmp = np.zeros((max(ns, 1), 4), np.int64)
     sensor_code = [(int(sens["field"][j]), bool(sens["delay"][j] == 0 and sens["hold"][j] == 1 and sens["std"][j] == 0
@@ -746,22 +778,33 @@ def run_steps(sim, mode: str, progress=None, logger=None):
         # step-major (log step, car, channel): a log step writes one contiguous block for all cars, car after
         # car (car-major rows, one per car a buffer apart, cost a cache miss per car and log step; channel-major
         # a cache line per channel); the channels are (car, log step) views, which the metrics gather into
-        # contiguous rows (results._contiguous).  Every entry is written by the loop.
+        # contiguous rows (results._contiguous).  Every entry but the scratch column is written by the loop.
         L = np.empty((cap, n, len(layout.names)))
+        # the tables of the actuator states, readings, controller and effect signals keep only what is logged
+        # (a batch without time series logs none of them: ~30 loads and stores per car and log step less)
+        scratch = len(layout.names) - 1 if layout.names and layout.names[-1] == "__scratch__" else -1
+        tabs["lc_act"], (tabs["act_j"],) = _logged(layout.lc_act, scratch, act_j)
+        tabs["lc_y"], (tabs["y_j"],) = _logged(layout.lc_y, scratch, np.arange(len(layout.lc_y), dtype=np.int64))
+        tabs["lc_ctrl"], (tabs["ctrl_j"],) = _logged(layout.lc_ctrl, scratch, ctrl_j)
         eff_full = []
-        for args, lc in zip(eff_args, layout.eff_lc):
-            eff_full += args + [lc]
+        for args, lc, pi in zip(eff_args, layout.eff_lc, eff_pi):
+            lc, (sigj,) = _logged(lc, scratch, args[3])
+            eff_full += args[:3] + [sigj, lc, pi]
         return L, eff_full
+
+    tabs = {}
 
     if full:
         L, eff_full = make_log()
     else:  # the layout needs the first readings and controller signals: built at the first control instant
         L = np.zeros((0, n, 0))
         eff_full = []
-        for args in eff_args:
-            eff_full += args + [np.zeros((len(args[3]), int(args[2].max()) + 1 if args[2].size else 0), np.int64)]
+        for args, pi in zip(eff_args, eff_pi):
+            eff_full += args + [np.zeros((len(args[3]), int(args[2].max()) + 1 if args[2].size else 0), np.int64), pi]
         layout.lc_act = np.zeros((0, nc), np.int64)
         layout.lc_y = layout.lc_ctrl = np.zeros(0, np.int64)
+        tabs.update(lc_act=layout.lc_act, act_j=act_j[:0], lc_y=layout.lc_y, y_j=layout.lc_y, lc_ctrl=layout.lc_ctrl,
+                    ctrl_j=ctrl_j[:0])
 
     # plant arrays ------------------------------------------------------------------------------------
     dummy = np.zeros((n, nc), dtype=np.int64)
@@ -793,11 +836,11 @@ def run_steps(sim, mode: str, progress=None, logger=None):
     def call(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume):
         return mod.loop(*fixed, road_z, road_zd, road_zdd, man_p, man_r, k_chunk0, k, k1, resume, bool(sim.variations), full, sim.n_steps, sim.sub,
                         sim.log_every, sim.dt, float(sc0.max_displacement), float(sc0.max_velocity),
-                        cmd, F_act, F_eff, F_teff, acc, v_before, sv, a_p, a_st,
+                        cmd, F_act, F_eff, F_teff, acc, v_before, sv, a_p, a_pi, a_st,
                         sens["field"], sens_cols, sens["aux"], sens["off"], sens["k"], sens["delay"],
                         sens["hold"], sens["bias"], sens["std"], sens["q"], noise, sens["noise_off"], ring, sens_tmp, y,
-                        kc_arr, c_p, c_st, L, logger.base, layout.LC, layout.lc_act, act_j, layout.lc_y, layout.lc_ctrl,
-                        ctrl_j, *eff_full)
+                        kc_arr, c_p, c_pi, c_st, L, logger.base, layout.LC, tabs["lc_act"], tabs["act_j"], tabs["lc_y"],
+                        tabs["y_j"], tabs["lc_ctrl"], tabs["ctrl_j"], *eff_full)
 
     logger.t[:] = (np.arange(logger.base, logger.base + cap) * sim.log_every) * sim.dt
 
