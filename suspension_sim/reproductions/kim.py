@@ -114,11 +114,11 @@ def _fig(n):
         fig.suptitle(f"Kim Fig. {n}: k_d = {k_d}, {'with' if fd else 'without'} dF_d/dt (the paper's law, "
                      "a2 −20 %, a3 +20 % at t = 0)", fontsize=9)
         fig.tight_layout()
-        key = {"force_error_adaptive_N": (err["kim"][0], 5.0), "force_error_known_N": (err["known"][0], 5.0),
+        key = {"force_error_adaptive_N": (err["kim"][0], 0.1), "force_error_known_N": (err["known"][0], 0.1),
                "param_error_end": (perr, 0.01), "x2_peak_m": (x2["kim"], 1e-3)}
         notes = []
         if n == 2:
-            notes.append("Step: 0.025 ms here (Figs. 3–5: 0.1 ms). At k_d = 10 the force error is sensitive to the "
+            notes.append("Step: 0.025 ms here (Figs. 3 and 5: 0.1 ms; Fig. 4: 0.025 ms). At k_d = 10 the force error is sensitive to the "
                          "sampled realisation: with the deflection rate of f̂ taken at the start of each hold "
                          "(variant zoh) it is first order in the step (21.0, 17.0, 15.1, 14.2, 13.8 N at 0.1, "
                          "0.05, 0.025, 0.0125, 0.00625 ms); at the middle of the hold (the scenarios' "

@@ -124,7 +124,7 @@ def ch3_load_step(ctx) -> ItemOutput:
     key = {"passive_sag": (z["passive"], 0.01), "thesis_sag": (z["mrac_thesis"], 0.01),
            "thesis_force": (f["mrac_thesis"], 10.0),
            "mrac_level": (z["mrac_thetad"], 0.01), "mrac_force": (f["mrac_thetad"], 10.0),
-           "follow_mrac": (follow["mrac_thetad"], 1e-3), "theta_err_20s": (float(rel20.max()), 0.01)}
+           "follow_mrac": (follow["mrac_thetad"], 1e-5), "theta_err_20s": (float(rel20.max()), 0.01)}
     return ItemOutput(claims, key=key, figure=fig, notes=[HALF_NOTE])
 
 
@@ -180,7 +180,8 @@ def ch3_adaptation(ctx) -> ItemOutput:
     psi = np.stack([ad[f"ctrl.phi.{k}"].to_numpy()[m] for k in range(5)], 1) * scale
     info = (psi.T / np.sum(psi ** 2, 1)) @ psi / len(psi)
     lam, vec = np.linalg.eigh(info)
-    f = {k: [fol(k, a, b) for a, b in zip(edges[:-1], edges[1:])] for k in ("adaptive", "nonadaptive", "passive")}
+    f = {k: [fol(k, a, b) for a, b in zip(edges[:-1], edges[1:])] for k in ("adaptive", "nonadaptive", "passive", "known")
+         if k in ts}
     ref_d = ts["drift_adaptive_thetad"]["ctrl.ref_x"].to_numpy()
     fd = {k: fol(k, 10, 60, ref_d) for k in ("drift_adaptive_thetad", "drift_nonadaptive_thetad", "drift_passive")}
     lev = {k: mean(ts[k], "body_z", 30, 50) for k in ("drift_adaptive_thetad", "drift_nonadaptive_thetad", "drift_passive")}
@@ -207,9 +208,15 @@ def ch3_adaptation(ctx) -> ItemOutput:
               "gains move from their initial values (Fig. 3.8); stable tracking within 10 s",
               "RMS(body − reference) per window 0–5, 5–10, 10–20, 20–40, 40–60 s: adaptive "
               + ", ".join(f"{x * 1000:.2f}" for x in f["adaptive"]) + " mm; adaptation off (same start) "
-              + ", ".join(f"{x * 1000:.2f}" for x in f["nonadaptive"]) + f" mm; passive {f['passive'][-1] * 1000:.1f} mm",
+              + ", ".join(f"{x * 1000:.2f}" for x in f["nonadaptive"]) + " mm; "
+              + (("known parameters (the matching design, adaptation off) "
+                  + ", ".join(f"{x * 1000:.2f}" for x in f["known"]) + " mm; ") if "known" in f else "")
+              + f"passive {f['passive'][-1] * 1000:.1f} mm",
               "reproduced" if ok else "not",
-              "within 10 s the error is 2.2× smaller, below 0.2 mm from ≈ 15 s on"),
+              "within 10 s the error is 2.2× smaller, below 0.2 mm from ≈ 15 s on"
+              + ("; from 10–20 s on at or below the known-parameter case's (the continuous design is not the best "
+                 "gain set for the loop sampled at 0.01 s; the adaptation also takes up that mismatch)"
+                 if "known" in f else "")),
         Claim("Θ moves toward the matching gains Θ*", "updated to \"some required values\" (Fig. 3.8)",
               f"scaled distance to the matching line Θ*(a0) {d0:.2f} at 0 s → {dist[10][0]:.2f} at 10 s → "
               f"{dend:.2f} at 60 s; at 60 s per entry (r1 − a0, s0, s1, t0, t1) "
@@ -267,10 +274,12 @@ def ch3_adaptation(ctx) -> ItemOutput:
     ax[2].legend(fontsize=7, ncol=5)
     fig.suptitle("Thesis Ch. 3 (Figs. 3.6–3.9): adaptation from 30 % wrong gains, printed structure", fontsize=9)
     fig.tight_layout()
-    key = {"follow_adaptive_40_60": (f["adaptive"][-1], 1e-3), "follow_nonadaptive_40_60": (f["nonadaptive"][-1], 1e-3),
-           "follow_adaptive_0_5": (f["adaptive"][0], 1e-3), "theta_dist_60": (dend, 0.05),
-           "drift_follow_adaptive": (fd["drift_adaptive_thetad"], 1e-3),
-           "blowoff_follow_adaptive": (fb["blowoff_adaptive"][1], 1e-3)}
+    key = {"follow_adaptive_40_60": (f["adaptive"][-1], 1e-5), "follow_nonadaptive_40_60": (f["nonadaptive"][-1], 1e-5),
+           "follow_adaptive_0_5": (f["adaptive"][0], 1e-5), "theta_dist_60": (dend, 0.05),
+           "drift_follow_adaptive": (fd["drift_adaptive_thetad"], 1e-5),
+           "blowoff_follow_adaptive": (fb["blowoff_adaptive"][1], 1e-5)}
+    if "known" in f:
+        key["follow_known_40_60"] = (f["known"][-1], 1e-5)
     return ItemOutput(claims, key=key, figure=fig, notes=[HALF_NOTE])
 
 
@@ -799,7 +808,7 @@ def ch5(ctx) -> ItemOutput:
     ax[0].set_ylabel("body acc PSD (m²/s⁴/Hz)")
     ax[0].legend(fontsize=7)
     for k, s_ in (("passive", "g-"), ("soc_fixed", "b-"), ("soc_rescheduled_5s", "c-"), ("mrac", "r-"),
-                  ("mrac_thetad", "m--")):
+                  ("mrac_thetad", "m--"), ("mrac_thetad_nonadaptive", "k:")):
         if k not in var:
             continue
         ax[1].plot(var[k].ts.t, var[k].ts.body_z, s_, lw=0.5, label=k)
@@ -813,8 +822,10 @@ def ch5(ctx) -> ItemOutput:
            for k, (a, b) in (("soc_fixed", (45, 60)), ("soc_rescheduled_5s", (45, 60)),
                              ("soc_rescheduled_10s", (45, 60)), ("mrac", (20, 60)), ("mrac_thetad", (20, 60)))
            if k in var}
-    mz = {k: mean(var[k].ts, "body_z", 45, 60) for k in ("mrac", "mrac_thetad") if k in var}
-    mzl = {k: mean(var[k].ts, "body_z", 25, 40) for k in ("mrac", "mrac_thetad") if k in var}
+    tv = ("mrac", "mrac_thetad", "mrac_thetad_nonadaptive")
+    mz = {k: mean(var[k].ts, "body_z", 45, 60) for k in tv if k in var}
+    mzl = {k: mean(var[k].ts, "body_z", 25, 40) for k in tv if k in var}
+    mzs = {k: mean(var[k].ts, "body_z", 33, 35) for k in tv if k in var}  # the 2 s after the stiffness drop
     low, res_, hi = 0, (1, 2), (2, 3, 4)
     claims = [
         Claim("nominal: MRAC better at and above resonance (acc PSD, 0.5–8 Hz)", "MRAC better",
@@ -848,10 +859,24 @@ def ch5(ctx) -> ItemOutput:
         Claim("varying: same with our θ_d and P1 = (s + 20)² (variant `mrac_thetad`, not in the thesis)", "keeps it",
               diverged_text(dvar["mrac_thetad"]) if "mrac_thetad" in dvar else
               f"never at the limit ({sat['mrac_thetad']:.0%}); mean level 25–40 s {mzl['mrac_thetad'] * 100:.1f} cm, "
-              f"45–60 s {mz['mrac_thetad'] * 100:.1f} cm",
+              f"33–35 s {mzs['mrac_thetad'] * 100:.1f} cm, 45–60 s {mz['mrac_thetad'] * 100:.1f} cm",
               "reproduced" if "mrac_thetad" in var and sat["mrac_thetad"] < 0.01 and abs(mz["mrac_thetad"]) < 0.03
               else "not", "our addition"),
     ]
+    if "mrac_thetad_nonadaptive" in var and "mrac_thetad" in var:
+        # the baseline an adaptation claim must beat: Θ adaptation off (γ = 0), θ_d kept
+        # adaptation is shown only if it beats the baseline by the 0.8× an adaptation claim must reach, under the
+        # load (25–40 s) and right after the unknown stiffness drop (33–35 s)
+        same = not all(abs(m["mrac_thetad"]) < 0.8 * abs(m["mrac_thetad_nonadaptive"]) for m in (mzl, mzs))
+        claims.append(Claim(
+            "varying: is it the Θ adaptation that keeps the behaviour? (baseline `mrac_thetad_nonadaptive`: "
+            "γ = 0, nominal Θ, our θ_d kept)", "MRAC adapts to the changes",
+            f"adaptation off: mean level 25–40 s {mzl['mrac_thetad_nonadaptive'] * 100:.1f} cm, 33–35 s "
+            f"{mzs['mrac_thetad_nonadaptive'] * 100:.1f} cm, 45–60 s {mz['mrac_thetad_nonadaptive'] * 100:.1f} cm "
+            f"(adaptive {mzl['mrac_thetad'] * 100:.1f}, {mzs['mrac_thetad'] * 100:.1f}, {mz['mrac_thetad'] * 100:.1f} cm)",
+            "not" if same else "reproduced",
+            "the baseline holds the level as well (adaptive not below 0.8× its offset): the nominal design plus "
+            "our θ_d, not adaptation" if same else ""))
     table = md_table(["nominal", *[f"acc PSD {lo}–{hi} Hz" for lo, hi in bands], "rattle RMS (mm)",
                        "⟨|F·ż|⟩ (W)"], rows)
     # the weights: the thesis gives none.  Sweep ρ1, ρ2 and ask whether any pair places the SOC where the thesis
@@ -896,6 +921,14 @@ def ch5(ctx) -> ItemOutput:
     key["sweep_all_hits"] = (float(hits["all"]), 1.0)
     key["thetad_psd_res"] = (psd["mrac_thetad"][1], 1e-4)
     key["varying_mrac_stop_time"] = (float(dvar["mrac"].time) if "mrac" in dvar else float("inf"), 0.1)
+    # the varying run's claims (saturation fractions and levels; floors: 1 % of the time, 1 mm)
+    for k_ in ("soc_fixed", "mrac"):
+        if k_ in sat:
+            key[f"varying_sat_{k_}"] = (sat[k_], 0.01)
+    for k_ in tv:
+        if k_ in var:
+            key[f"varying_level_25_40_{k_}"] = (mzl[k_], 1e-3)
+            key[f"varying_level_33_35_{k_}"] = (mzs[k_], 1e-3)
     return ItemOutput(claims, key=key, figure=fig, notes=[HALF_NOTE], tables=[table, sweep_table])
 
 

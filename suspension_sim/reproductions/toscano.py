@@ -86,9 +86,19 @@ def constant(ctx) -> ItemOutput:
               f"({tr['body_vel'][1]:.3f}), travel {tr['travel'][0]:.3f} ({tr['travel'][1]:.3f})",
               "reproduced" if tr["body_z"][0] < 0.2 * tr["body_z"][1] else "partly"),
     ]
+    R = res["reference"].ts
+    base = {v: nrmse(res[v].ts.body_z, R.body_z) for v in ("adaptation_off", "known") if v in res}
+    if len(base) == 2:
+        claims.append(Claim(
+            "the adaptation is what makes the car follow, NRMSE body z: the same law with the adaptation off "
+            "(λ = 0, same zero start; the baseline must fail) / with the true 15000, 1500 (the known-parameter case)",
+            "(implied: adaptive control from unknown parameters)",
+            f"adaptation off {base['adaptation_off']:.3f}, known parameters {base['known']:.3f}; adaptive "
+            f"{tr['body_z'][0]:.3f}", "reproduced" if base["adaptation_off"] > 5 * tr["body_z"][0] else "not",
+            "the adaptive law approaches the known-parameter case; without adaptation the car does not follow"))
     fig = _figure(res, "Toscano & Dumas: constant k_M, b_M, estimates from 0 (cf. Figs. 6–8)",
                   lambda t: K0 + 0 * t, lambda t: B0 + 0 * t)
-    key = {"fk_mean": (fk, 1000.0), "fb_mean": (fb, 100.0), "nrmse_body_z": (tr["body_z"][0], 0.05)}
+    key = {"fk_mean": (fk, 1000.0), "fb_mean": (fb, 100.0), "nrmse_body_z": (tr["body_z"][0], 0.005)}
     return ItemOutput(claims, key=key, figure=fig)
 
 
@@ -145,6 +155,15 @@ def varying(ctx) -> ItemOutput:
               f"body z {tr['body_z'][0]:.3f} (uncontrolled {tr['body_z'][1]:.3f}), body v {tr['body_vel'][0]:.3f} "
               f"({tr['body_vel'][1]:.3f})", "reproduced" if tr["body_z"][0] < 0.3 * tr["body_z"][1] else "partly"),
     ]
+    if "frozen_means" in res:
+        F = res["frozen_means"].ts
+        fz = nrmse(F.body_z, res["reference"].ts.body_z)
+        claims.append(Claim(
+            "the adaptation is what keeps the car on the reference: the same law frozen at the true means 15000 / 1500 "
+            "(λ = 0; the best constant estimates; the baseline must fail), NRMSE", "(implied by Fig. 11)", f"body z {fz:.3f}, body v {nrmse(F.body_vel, res['reference'].ts.body_vel):.3f} (adaptive "
+            f"{tr['body_z'][0]:.3f}, {tr['body_vel'][0]:.3f})",
+            "reproduced" if fz > 2 * tr["body_z"][0] else "not",
+            "following through the variation needs the adaptation"))
     notes = ["Why the estimates miss by about half the variation while the car still follows the reference: the "
              "gradient law (27) only needs θ̃ᵀφ = (f_k − f̂_k)Δx + (f_b − f̂_b)Δv small, not θ̃.  The rows above "
              "separate the causes: a floor present with constant parameters (f̂_k(Δx) wanders with Δx, β̂¹ ≠ "
