@@ -166,13 +166,33 @@ class ParameterCandidate(Candidate):
         lo, hi = nominal_bounds(self.pname, v, spec.bounds_factor)
         if positive(self.pname):
             lo = max(lo, 1e-9)
-        sp.free = sp.free + [FreeParam(self.pname, v, lo, hi, max(abs(v), 1e-9))]
+        scale = abs(v) if v != 0 else zero_nominal_scale(self.pname, sc, lo, hi)
+        sp.free = sp.free + [FreeParam(self.pname, v, lo, hi, scale)]
         sp.fixed_nominal = [n for n in sp.fixed_nominal if n != self.pname]
         self.size_names = [(self.pname, v)]  # named only when it differs from the stated value beyond its error
         return sp, [[f.init for f in sp.free]]
 
     def describe(self, P):
         return {"param": {self.pname: P[self.pname]}}
+
+
+def zero_nominal_scale(pname: str, sc: Scales, lo: float = 0.0, hi: float = np.inf) -> float:
+    """The scale of a parameter whose stated value is 0 (a tire damping, the spring of a pure integrator):
+    from the data by its unit (a stiffness: max(k, F/s); a damping: max(c, F/v)), else from its declared
+    bounds.  A scale of the stated value (0, floored at 1e-9) made the finite-difference step 1e-13 in SI
+    units: the parameter could never leave 0, and was judged indistinguishable from it."""
+    n = pname.lower()
+    if "stiffness" in n or n.startswith("arb"):
+        u = max(sc.k, sc.F / max(sc.s, 1e-12))
+    elif "damping" in n:
+        u = max(sc.c, sc.F / max(sc.v, 1e-12))
+    elif np.isfinite(lo) and np.isfinite(hi) and hi > lo:
+        u = 0.5 * (abs(lo) + abs(hi))
+    elif np.isfinite(hi) and hi != 0:
+        u = abs(hi)
+    else:
+        u = 1.0
+    return float(u) if np.isfinite(u) and u > 0 else 1.0
 
 
 def _axles(kind: str) -> dict[str, list[str]]:

@@ -128,6 +128,14 @@ def nominal_bounds(name: str, val: float, factor: float) -> tuple[float, float]:
     return 0.0, np.inf
 
 
+def _zero_scale(lo: float, hi: float) -> float:
+    """Scale of a free parameter stated as 0 (no data scale yet): from its declared bounds, else 1 (SI).  The
+    scale sets the finite-difference step; a scale of 1e-9 (the former floor) left the parameter at 0."""
+    if np.isfinite(hi) and hi > max(lo, 0.0):
+        return float(hi - max(lo, 0.0)) / 2.0 if np.isfinite(lo) else float(abs(hi))
+    return 1.0
+
+
 def _is_free(v) -> tuple[bool, float | None, dict]:
     if isinstance(v, str) and v.strip().lower() in ("free", "?"):
         return True, None, {}
@@ -201,7 +209,7 @@ def load_model(path_or_dict, source: str | None = None) -> ModelSpec:
             else:
                 lo, hi = (1e-6 * max(abs(val), 1e-12), np.inf) if positive(name) else (0.0, np.inf)
             lo, hi = ex.get("lo", lo), ex.get("hi", hi)
-            free.append(FreeParam(name, val, lo, hi, max(abs(val), 1e-9)))
+            free.append(FreeParam(name, val, lo, hi, abs(val) if val != 0 else _zero_scale(lo, hi)))
         else:
             fixed.append(name)
     effects = []
