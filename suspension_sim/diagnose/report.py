@@ -229,7 +229,8 @@ def build_report(D: Diagnosis, out: Path, confirm: bool = True, plots: bool = Tr
                                      "test_nrmse_before": tr.test_before, "test_nrmse_after": tr.test_after,
                                      "test_excess_over_floor_before": tr.excess_before,
                                      "test_excess_over_floor_after": tr.excess_after,
-                                     "z_test_improvement": tr.z, "signature": cand.signature,
+                                     "z_test_improvement": tr.z, "z_spectral": tr.z_spectral,
+                                     "signature": cand.signature,
                                      "model_change": desc}})
     # locate on the nominal model
     s_nom, st_nom = D.sims(D.nominal)
