@@ -17,9 +17,11 @@ import functools
 import platform
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 import pandas as pd
 
+from . import buffers
 from .log import Logger, frame, stop_gap_sides_all, stop_gaps_all
 
 @dataclass
@@ -314,9 +316,13 @@ def _contiguous(channels: dict, needed: list) -> dict:
         idx = [j for _, j in items]
         bs = max(1, (1 << 20) // max(1, b.shape[1] * b.shape[2] * b.itemsize))  # ~1 MB of the buffer per block
         if kind == "car":
-            g = np.empty((len(idx), b.shape[0], b.shape[1]), dtype=b.dtype)
+            g = buffers.empty((len(idx), b.shape[0], b.shape[1])) if b.dtype == np.float64 else \
+                np.empty((len(idx), b.shape[0], b.shape[1]), dtype=b.dtype)
             for c0 in range(0, b.shape[0], bs):
                 g[:, c0:c0 + bs] = np.take(b[c0:c0 + bs], idx, axis=2).transpose(2, 0, 1)
+        elif b.dtype == np.float64 and b.flags.c_contiguous:  # the compiled loop's log: one compiled pass
+            g = buffers.empty((len(idx), b.shape[1], b.shape[0]))
+            _gather_step_major(b, np.asarray(idx, dtype=np.int64), g)
         else:
             g = np.empty((len(idx), b.shape[1], b.shape[0]), dtype=b.dtype)
             for r0 in range(0, b.shape[0], bs):
@@ -324,6 +330,21 @@ def _contiguous(channels: dict, needed: list) -> dict:
         for k, (name, _) in enumerate(items):
             out[name] = g[k]
     return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _gather_step_major(b, idx, g):  # pragma: no cover - compiled
+    """g[k, car, r] = b[r, car, idx[k]]: channels of a step-major log (step, car, channel) as contiguous rows,
+    a block of log steps at a time (each block's cache lines read once for every channel)."""
+    n_r, n_c = b.shape[0], b.shape[1]
+    R = 64
+    for r0 in range(0, n_r, R):
+        r1 = min(r0 + R, n_r)
+        for c in range(n_c):
+            for k in range(idx.size):
+                j = idx[k]
+                for r in range(r0, r1):
+                    g[k, c, r] = b[r, c, j]
 
 
 def versions() -> dict:

@@ -35,6 +35,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from .. import buffers
+
 TEMPLATE_VERSION = 19
 
 # PlantState fields a compiled sensor may read (Sensor.kernel_field), by code
@@ -778,8 +780,10 @@ def run_steps(sim, mode: str, progress=None, logger=None):
         # step-major (log step, car, channel): a log step writes one contiguous block for all cars, car after
         # car (car-major rows, one per car a buffer apart, cost a cache miss per car and log step; channel-major
         # a cache line per channel); the channels are (car, log step) views, which the metrics gather into
-        # contiguous rows (results._contiguous).  Every entry but the scratch column is written by the loop.
-        L = np.empty((cap, n, len(layout.names)))
+        # contiguous rows (results._contiguous).  Every entry but the scratch column (never read) is written by
+        # the loop, so the buffer may be an earlier run's that nothing references any more (buffers.empty: no
+        # fresh pages to fault in and zero).
+        L = buffers.empty((cap, n, len(layout.names)))
         # the tables of the actuator states, readings, controller and effect signals keep only what is logged
         # (a batch without time series logs none of them: ~30 loads and stores per car and log step less)
         scratch = len(layout.names) - 1 if layout.names and layout.names[-1] == "__scratch__" else -1
