@@ -145,8 +145,11 @@ def test_reproduce_thesis(tmp_path):
     assert s["ch3_dirt"]["key"]["passive_level"] < -0.2 and abs(s["ch3_dirt"]["key"]["mrac_level"]) < 0.01
     # Ch. 5: no pair of SOC weights gives all of the thesis's nominal sub-claims
     assert s["ch5"]["key"]["sweep_all_hits"] == 0
-    # Ch. 4: level held, model following not better than passive (friction lock)
-    assert abs(s["ch4_load_step"]["key"]["mrac_level"]) < 0.02
+    # Ch. 4, the printed law: the static force is carried, the level only partly recovered (friction lock); the
+    # estimates from a wrong design join the right start's
+    k4 = s["ch4_load_step"]["key"]
+    assert 0.02 < abs(k4["mrac_level"]) < 0.5 * abs(k4["off_level"])
+    assert abs(k4["mrac_force"] - 150 * 9.81) < 200 and k4["wrong_theta_gap_60s"] < 0.25
     k7 = s["ch7_braking"]["key"]
     assert k7["asym_mrac_bounce"] < 0.1 * k7["asym_passive_bounce"]
     assert k7["mrac_pitch_deg"] < 0.2 * k7["passive_dive_deg"]
