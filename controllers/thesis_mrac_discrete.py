@@ -62,11 +62,13 @@ class MRACDiscreteParams(Params):
     delay_steps: int = Field(5, ge=0, description="loop delay in control steps (thesis 0.05 s = 5 × 0.01 s); "
                              "must match the sensors' delay")
     p0: float = Field(0.01, gt=0, description="initial covariance (scaled parameters)")
-    q: float = Field(1e-4, ge=0, description="covariance addition per step (scaled)")
+    q: float = Field(0.0, ge=0, description="covariance addition Q per step (scaled); Eq. 4.56 allows 0 ≤ Q < ∞ "
+                     "and gives no value: 0 is the printed law at the bottom of its range")
     trace_max: float = Field(0.5, gt=0, description="trace bound of P (scaled)")
     u_max: float = Field(20000.0, gt=0, description="actuator force limit (N)")
-    kappa: float = Field(0.1, gt=0, le=1, description="control-increment weighting κ (1 = the thesis's d-step-ahead "
-                         "law, which rings at the Nyquist frequency here; see thesis_common.DiscreteMRAC)")
+    kappa: float = Field(1.0, gt=0, le=1, description="control-increment weighting κ, ours: 1 = the thesis's "
+                         "d-step-ahead law (Eq. 4.55); κ < 1 stops the cancellation of the sampling zero near z = −1 "
+                         "(see thesis_common.DiscreteMRAC)")
     road_feedforward: bool = Field(True, description="U_T = u + K*·w + C0·ẇ (see module doc)")
 
 
