@@ -122,7 +122,9 @@ def _dev(ts, ref):
 def test_travel_inside_limits_and_adaptation_helps(fig, fig4, fig5):
     res = fig4 if fig == 4 else fig5
     for name, ts in res.items():
-        assert np.max(np.abs(ts.travel)) < 0.08, name  # ±8 cm travel limit on the 8 cm bump
+        # ±8 cm travel limit on the 8 cm bump: a limit check (the passive car stays inside too, 6.8 cm); the baseline
+        # that fails it is the law without the nonlinear filter (ε1 = 0: 8.9 cm, test_filter_reading_…)
+        assert np.max(np.abs(ts.travel)) < 0.08, name
         assert np.max(np.abs(ts["act.spool_position"])) <= 0.01 + 1e-12
     d_ad, d_non = _dev(res["adaptive"], res["known"]), _dev(res["nonadaptive"], res["known"])
     assert d_ad < 0.6 * d_non, (d_ad, d_non)
