@@ -11,6 +11,7 @@ from __future__ import annotations
 import types
 
 import numpy as np
+import pytest
 from scipy.signal import lfilter
 
 from suspension_sim.diagnose.select import NOISE_LIKE, Selector, incoherent_noise, noise_floor
@@ -275,3 +276,35 @@ def test_pairs_need_a_member_that_lowers_the_held_out_error_alone():
     members, pairs = sel._pairs(res, set())
     names = [(members[i][2].name, members[j][2].name) for i, j in pairs]
     assert ("bump_stop@front", "bump_stop@rear") not in names and len(names) == 5
+
+
+def test_a_screened_candidate_is_judged_again_on_the_whole_training_part():
+    """A candidate kept on the screening window (judged against the current model refitted on that window) is
+    refitted on the whole training part and judged again against the current whole-part model: kept only
+    when the gate holds there too; the trial then shows the whole-part evidence and keeps the window's."""
+    from suspension_sim.diagnose.select import Trial
+
+    rng = np.random.default_rng(2)
+    base = rng.standard_normal((4000, 1))
+    base /= np.sqrt(np.mean(base ** 2))
+    sel = Selector.__new__(Selector)
+    sel.z_min, sel.min_excess_drop, sel.min_rel_drop = 2.0, 0.10, 0.05
+    sel.prob = types.SimpleNamespace(channels=["pos"])
+    sel.log = lambda m: None
+    sel._replaced = lambda cur, fr, sizes: []
+    level = {"current": 0.0066, "good": 0.0056, "useless": 0.0066}
+    sel._test_errors = lambda f: level[f.name] * base
+    fits = {n: types.SimpleNamespace(name=n, bic=lambda b=b: b, aic=lambda b=b: b, params={"qd.c_v": 1e-7},
+                                     std={"qd.c_v": 1e-8})
+            for n, b in (("current", 0.0), ("good", -1569.0), ("useless", -3.0))}
+    cand = types.SimpleNamespace(size_names=["qd.c_v"])
+    floor = np.array([0.0013])
+    screened = dict(d_bic=-6.3, test_before=0.0076, test_after=0.0068, excess_before=0.0075, excess_after=0.0067, z=11.8)
+    for name, ok in (("good", True), ("useless", False)):
+        tr = Trial("quadratic_damping", 2, True, kept=True, **screened)
+        e_cur = sel._test_errors(fits["current"])
+        assert sel._confirm(tr, fits[name], fits["current"], e_cur, floor, [cand]) is ok
+        assert tr.kept is ok and tr.screened == screened
+        assert tr.test_before == pytest.approx(0.0066, rel=1e-3)
+        assert tr.test_after == pytest.approx(level[name], rel=1e-3)
+        assert ok or "rejected on the whole training part" in tr.reason
