@@ -221,7 +221,11 @@ def main():
           "unexplained | time |")
     print("|---|---|---|---|---|---|---|---|---|")
     for name in a.cases.split(","):
-        r = run_case(name, a.seed)
+        lines = []
+        r = run_case(name, a.seed, log=lines.append)
+        for ln in lines:  # how the floor moved during the search, and the pair beams it started
+            if "noise floor" in ln or "pairs of" in ln:
+                print(f"<!-- {name} log: {ln.strip()} -->", flush=True)
         print(f"| {name} | {', '.join(r['expected']) or '—'} | {', '.join(r['named']) or '—'} | "
               f"{'yes' if r['exact'] else 'no'} | {', '.join(r['false']) or '—'} | {r['before']:.4f} → {r['after']:.4f} | "
               f"{100 * r['shrink']:.1f} % | {_ux(r)} | "
