@@ -38,6 +38,13 @@ def shared_value(x) -> float:
     return float(a[0])
 
 
+def ref_value(x, default: float) -> float:
+    """A reference-model parameter that defaults to a nominal design value: ``default`` when ``x`` is None,
+    else its single value (:func:`shared_value`).  The thesis's reference models are fixed ("coded in the
+    controller"); a run started from a wrong initial design keeps them by giving them explicitly."""
+    return float(default) if x is None else shared_value(x)
+
+
 class ZOHFilter:
     """A continuous LTI filter (A, B, C, D) discretised by zero-order hold at ``dt``
     (``scipy.signal.cont2discrete``): x[k+1] = Ad x[k] + Bd u[k], y[k] = Cd x[k] + Dd u[k], run in a kernel

@@ -7,7 +7,8 @@ P = [[1, 0], [−1, 1]] and the primary's friction, velocity-squared damping and
 Reference (dual skyhook, Eq. 6.4): M_ms ẍ_ms + D_ms ẋ_ms + K_ms (x_ms − x_mp) = 0,
 M_mp ẍ_mp + D_mp ẋ_mp + K_mp (x_mp − w) − K_ms (x_ms − x_mp) = 0 (skyhook dampers on both masses;
 Z_m = [x_ms − x_mp, x_mp − w]).  Thesis values D_ms = 800, D_mp = 2000 N·s/m, the other model values equal
-to the plant's.
+to the plant's: here the controller's nominal M_s, M_p, K_s, K_p unless ``ref_*`` gives them (a run started from
+a wrong initial design keeps the thesis's reference by giving them).
 
 Control (Eq. 6.35): U = P⁻¹[U_ax + M0 Z̈_m + C0 Ż_m + K0 Z_m + D0 ẅ + K_p E + K_v Ė], E = Z_m − Z: the
 feedforward (inverse linearised model acting on the reference), the feedback and the auxiliary signal
@@ -55,7 +56,8 @@ from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
-from .thesis_common import ZOH_HEADER, KernelLayout, ZOHFilter, k_dot, shared_value, stamped_cache, zoh_update, zoh_y
+from .thesis_common import (ZOH_HEADER, KernelLayout, ZOHFilter, k_dot, ref_value, shared_value, stamped_cache, zoh_update,
+                            zoh_y)
 
 
 class MDOFParams(Params):
@@ -65,6 +67,12 @@ class MDOFParams(Params):
     secondary_damping: float = Field(100.0, ge=0, description="nominal C_s (N·s/m)")
     primary_stiffness: float = Field(8700.0, gt=0, description="nominal K_p (N/m)")
     primary_lin_damping: float = Field(300.0, ge=0, description="equivalent linear damping of the primary's nonlinear damper + friction (N·s/m)")
+    ref_sprung_mass: float | None = Field(None, gt=0, description="M_ms of the reference (kg); default the nominal M_s")
+    ref_primary_mass: float | None = Field(None, gt=0, description="M_mp of the reference (kg); default the nominal M_p")
+    ref_secondary_stiffness: float | None = Field(None, gt=0, description="K_ms of the reference (N/m); default the "
+                                                  "nominal K_s")
+    ref_primary_stiffness: float | None = Field(None, gt=0, description="K_mp of the reference (N/m); default the "
+                                                "nominal K_p")
     ref_skyhook_secondary: float = Field(800.0, gt=0, description="D_ms (N·s/m)")
     ref_skyhook_primary: float = Field(2000.0, gt=0, description="D_mp (N·s/m)")
     error_freq: float = Field(10.0, gt=0, description="ω_e/2π of the desired error dynamics (Hz)")
@@ -214,13 +222,16 @@ class MDOFAdaptive(Controller):
         for k, v in self.G0.items():
             a_ = np.abs(v)
             self.g_scale[k] = np.maximum(a_, 0.1 * a_.max()) if a_.max() > 0 else np.full(v.shape, 100.0)
-        # reference: absolute states [x_ms, x_mp, ẋ_ms, ẋ_mp], input w
+        # reference: absolute states [x_ms, x_mp, ẋ_ms, ẋ_mp], input w; its masses and springs are the nominal
+        # design's unless given (a wrong initial design keeps the thesis's reference: ref_* set explicitly)
         Dms, Dmp = shared_value(p.ref_skyhook_secondary), shared_value(p.ref_skyhook_primary)
-        Mi = np.diag([1 / Ms, 1 / Mp])
-        Kr = np.array([[Ks, -Ks], [-Ks, Ks + Kp]])
+        Mms, Mmp = ref_value(p.ref_sprung_mass, Ms), ref_value(p.ref_primary_mass, Mp)
+        Kms, Kmp = ref_value(p.ref_secondary_stiffness, Ks), ref_value(p.ref_primary_stiffness, Kp)
+        Mi = np.diag([1 / Mms, 1 / Mmp])
+        Kr = np.array([[Kms, -Kms], [-Kms, Kms + Kmp]])
         Cr = np.diag([Dms, Dmp])
         A = np.block([[np.zeros((2, 2)), np.eye(2)], [-Mi @ Kr, -Mi @ Cr]])
-        B = np.concatenate([np.zeros(2), Mi @ np.array([0.0, Kp])])[:, None]
+        B = np.concatenate([np.zeros(2), Mi @ np.array([0.0, Kmp])])[:, None]
         self.Ar, self.Br = A, B
         self.ref = ZOHFilter(A, B, np.eye(4), np.zeros((4, 1)), h)
 

@@ -34,8 +34,9 @@ is what removes the braking nose dive.  U_T = u + K0·w + C0·ẇ per corner (no
 Reference ("two-tier skyhook", Eq. 7.7): the same half car with springs K_m, no passive damper, skyhook
 dampers C_m on the absolute velocity of both body attachment points and dampers D_m between each wheel and
 the ground (parallel to the tire); thesis values K_m = 17 kN/m, C_m = D_m = 9 kN·s/m, I_m = 1125 kg·m²,
-tire 100 kN/m; masses as the plant's.  The reference is driven by the measured road under both wheels and
-has no manoeuvre input: it stays level under braking, so the target pitch is the road-induced pitch only.
+tire 100 kN/m; masses as the plant's (the controller's nominal M_s, I unless ``ref_sprung_mass``,
+``ref_pitch_inertia`` give them: a run started from a wrong initial design keeps the thesis's reference).  The
+reference is driven by the measured road under both wheels and has no manoeuvre input: it stays level under braking, so the target pitch is the road-induced pitch only.
 
 Signals: ``ref_z``/``ref_pitch`` (target for the current reading), ``err.0/1``, ``ref_acc`` (reference
 heave acceleration), ``theta.k`` (Θ unscaled, flattened), ``bias.0/1`` (the operating-point forces c
@@ -56,8 +57,8 @@ from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
 from .thesis_common import (DM_HEADER, ZOH_HEADER, DiscreteMRAC, KernelLayout, ZOHFilter, am_poly, darma, dm_step,
-                            dm_theta_strides, k_dot, predictor, shared_value, stamped_cache, theta_from_predictor,
-                            zoh_update, zoh_y)
+                            dm_theta_strides, k_dot, predictor, ref_value, shared_value, stamped_cache,
+                            theta_from_predictor, zoh_update, zoh_y)
 
 
 class MIMOParams(Params):
@@ -69,6 +70,9 @@ class MIMOParams(Params):
     stiffness: float = Field(17000.0, gt=0, description="K0 per axle (N/m)")
     lin_damping: float = Field(500.0, ge=0, description="C0: describing-function linear damping per axle (N·s/m)")
     tire_stiffness: float = Field(100000.0, gt=0, description="reference tire stiffness (N/m)")
+    ref_sprung_mass: float | None = Field(None, gt=0, description="M_ms of the reference (kg); default the nominal M_s")
+    ref_pitch_inertia: float | None = Field(None, gt=0, description="I_m of the reference (kg·m²); default the "
+                                            "nominal I")
     ref_stiffness: float = Field(17000.0, gt=0, description="K_m (N/m)")
     ref_skyhook: float = Field(9000.0, ge=0, description="C_m skyhook dampers at the body attachment points (N·s/m)")
     ref_wheel_damping: float = Field(9000.0, ge=0, description="D_m wheel-to-ground dampers (N·s/m)")
@@ -180,7 +184,7 @@ class MIMOMRAC(Controller):
         mu = shared_value(p.unsprung_mass)
         Km, Cm = shared_value(p.ref_stiffness), shared_value(p.ref_skyhook)
         Dm, kt = shared_value(p.ref_wheel_damping), shared_value(p.tire_stiffness)
-        Mr = np.diag([M, I, mu, mu])
+        Mr = np.diag([ref_value(p.ref_sprung_mass, M), ref_value(p.ref_pitch_inertia, I), mu, mu])
         # corner heights of the body: T q; travel_i = (T q)_i − x_wi
         S = np.array([[1.0, -a, -1.0, 0.0], [1.0, b, 0.0, -1.0]])  # travels
         Tb = np.array([[1.0, -a, 0.0, 0.0], [1.0, b, 0.0, 0.0]])  # absolute corner heights (skyhook)

@@ -413,7 +413,9 @@ def mdof_reference(c, run, i, seen=None):
     Θ = R2 E + R3 Ė, the PI laws G = G0 + I + clip(β Θvᵀ) with İ = αΘvᵀ − σI (normalised, clipped), and
     U = P⁻¹[U_ax + M0 Z̈_m + C0 Ż_m + K0 Z_m + D0 ẅ + K_p E + K_v Ė] (Eq. 6.35)."""
     p, h = Scalars(c.p), c.ctx.control_dt
-    Ms, Mp, Ks, Kp = p.sprung_mass, p.primary_mass, p.secondary_stiffness, p.primary_stiffness
+    Ms, Mp, Ks, Kp = (q if q is not None else d for q, d in ((p.ref_sprung_mass, p.sprung_mass),
+                      (p.ref_primary_mass, p.primary_mass), (p.ref_secondary_stiffness, p.secondary_stiffness),
+                      (p.ref_primary_stiffness, p.primary_stiffness)))  # the reference's (default: nominal)
     Mi = np.diag([1 / Ms, 1 / Mp])
     Ar = np.block([[np.zeros((2, 2)), np.eye(2)],
                    [-Mi @ np.array([[Ks, -Ks], [-Ks, Ks + Kp]]), -Mi @ np.diag([p.ref_skyhook_secondary,
@@ -458,7 +460,10 @@ def mdof_reference(c, run, i, seen=None):
 
 
 @pytest.mark.parametrize("params", [{}, {"gain_limit": 1e-3, "adapt_model": False},
-                                    {"keep_cancellation": True, "adapt_model": False}])
+                                    {"keep_cancellation": True, "adapt_model": False},
+                                    {"secondary_stiffness": 22050.0, "primary_stiffness": 11310.0,
+                                     "ref_secondary_stiffness": 31500.0, "ref_primary_stiffness": 8700.0,
+                                     "ref_sprung_mass": 90.0, "ref_primary_mass": 4.0}])
 def test_mdof_adaptive_law(request, params):
     """Thesis Ch. 6 law for two cars; with a small gain limit the clips are engaged."""
     def edit(raw):

@@ -246,11 +246,14 @@ def test_dirt_road_printed_law_sinks_and_stops_cleanly(request):
     def edit(raw):
         raw["sim"]["duration"] = 8.0
 
-    with pytest.raises(SimulationDiverged) as e:
-        run_variants(request.config.rootpath, "thesis_ch3_dirt", edit, variants=("mrac_thesis",))
-    assert 1.0 < e.value.time < 6.0
-    msg = str(e.value)
-    assert "diverged at t=" in msg and "Hint:" in msg and "nan" not in msg.lower()
+    for v in ("mrac_thesis", "mrac_thesis_nonadaptive"):
+        with pytest.raises(SimulationDiverged) as e:
+            run_variants(request.config.rootpath, "thesis_ch3_dirt", edit, variants=(v,))
+        assert 1.0 < e.value.time < 6.0, v
+        msg = str(e.value)
+        assert "diverged at t=" in msg and "Hint:" in msg and "nan" not in msg.lower()
+    # (the printed law with the Θ adaptation off, its baseline, sinks the same way: measured 2.89 s against 3.17 s;
+    # no Θ of a regulator without a constant term holds the unknown constant load)
 
 
 @pytest.fixture(scope="module")

@@ -134,12 +134,12 @@ def test_structure_preserving_law_gives_the_reference_acceleration(request):
 
 def test_adaptation_from_a_wrong_design_improves_the_following(request):
     """Adaptation exercised from a stated wrong start (ours; the thesis gives no initial gains): the controller's
-    nominal K_s −30 %, K_p +30 %, C_s +30 %, C0_p −30 % on the sine rig without drifts (variants wrong_design*).
-    Both rattle-space errors (to the run's own reference) fall by more than 15 % from 1–4 s to 14–24 s (measured
-    2.63 → 2.01, 2.87 → 2.32 mm) and end below 0.7× the same wrong design with adaptation off, which does not
-    improve (3.76 → 3.67, 3.80 → 3.72 mm: the baseline fails)."""
+    nominal K_s −30 %, K_p +30 %, C_s +30 %, C0_p −30 % on the sine rig without drifts (variants wrong_design*; the
+    reference keeps the thesis's K_ms, K_mp).  Both rattle-space errors fall by more than 15 % from 1–4 s to 14–24 s
+    (measured 2.51 → 1.91, 2.75 → 2.20 mm) and end below 0.7× the same wrong design with adaptation off, which does
+    not improve (3.57 → 3.49, 3.64 → 3.56 mm: the baseline fails)."""
     sc = parse_scenario(read_yaml(request.config.rootpath / "scenarios" / "thesis_ch6_sine.yaml"))
-    ts = {k: Simulation([s]).run()[0].ts for k, s in sc.expand() if k.startswith("wrong_design")}
+    ts = {k: Simulation([s]).run()[0].ts for k, s in sc.expand() if k in ("wrong_design", "wrong_design_nonadaptive")}
 
     def err(t, j, a, b):
         m = ((t.t >= a) & (t.t < b)).to_numpy()
@@ -152,3 +152,80 @@ def test_adaptation_from_a_wrong_design_improves_the_following(request):
         assert ad1 < 0.85 * ad0, (j, ad0, ad1)
         assert not na1 < 0.85 * na0, (j, na0, na1)  # the baseline fails the same bound
         assert ad1 < 0.7 * na1, (j, ad1, na1)
+
+
+def _errs(ts, a, b):
+    """(secondary, primary) rattle-space error RMS in [a, b) to the run's reference (the same reference in every
+    run: the wrong design keeps the thesis's K_ms, K_mp through ref_*)."""
+    m = ((ts.t >= a) & (ts.t < b)).to_numpy()
+    return tuple(float(np.sqrt(np.mean((ts[c].to_numpy() - ts[f"ctrl.ref_z.{j}"].to_numpy())[m] ** 2)))
+                 for j, c in enumerate(("travel_secondary", "travel_primary")))
+
+
+WITHIN = 1.2  # "convergence independent of the initial values" (Sec. 6.9): late error within 20 % of the right design's
+
+
+def _wrong_start(root, name, wrong, edit=None):
+    def ed(raw):
+        if edit:
+            edit(raw)
+    return run_variants(root, name, ed, variants=("adaptive", wrong, wrong + "_nonadaptive"))
+
+
+def test_wrong_start_on_the_random_road_reaches_the_right_design(request):
+    """Thesis Sec. 6.9: "the convergence of the adaptive scheme is independent of the initial values".  On the
+    random road (the scenario's 20 s) from the stated wrong design (K_s −30 %, K_p +30 %, C_s +30 %, C0_p −30 %) the
+    secondary rattle-space error at 12–20 s is within 20 % of the right design's (measured 0.42 vs 0.38 mm), while
+    the same wrong design with adaptation off (the baseline) is not (0.88 mm).  (The primary error sits at 1.2× the
+    right design's, the page's "partly"; the body acceleration is the printed laws' K_v drift,
+    test_random_road_acceleration_comes_from_the_kv_drift.)"""
+    ts = _wrong_start(request.config.rootpath, "thesis_ch6_random", "wrong_design")
+    e = {k: _errs(t, 12, 20) for k, t in ts.items()}
+    assert e["wrong_design"][0] <= WITHIN * e["adaptive"][0], e
+    assert e["wrong_design_nonadaptive"][0] > WITHIN * e["adaptive"][0], e  # the baseline fails it
+    assert e["wrong_design"][1] < 0.8 * e["wrong_design_nonadaptive"][1], e
+
+
+def test_wrong_start_on_the_bump_is_not_a_test_of_adaptation(request):
+    """Bump run (mode I drifts): from the stated wrong design the adaptive errors at the last bump (9–12 s) are
+    within 20 % of the right design's (measured 1.85 / 1.81 vs 2.62 / 2.32 mm), but the same wrong design with
+    adaptation off is at 1.10× / 1.21× (2.87 / 2.79 mm): on the bump the error is set by the primary's friction and
+    the drifts, not by the initial design, so the baseline passes the secondary bound too and the bump cannot show
+    the claim.  This pins the page's "not shown"; a bump on which the wrong design mattered would fail the last
+    assertion."""
+    ts = _wrong_start(request.config.rootpath, "thesis_ch6_bump", "wrong_design")
+    e = {k: _errs(t, 9, 12) for k, t in ts.items()}
+    for j in (0, 1):
+        assert e["wrong_design"][j] <= WITHIN * e["adaptive"][j], e
+    assert e["wrong_design_nonadaptive"][0] <= WITHIN * e["adaptive"][0], e
+
+
+def test_wrong_start_through_the_drifts_on_the_sines(request):
+    """Sines with the mode I drifts from the stated wrong design (variant wrong_design_drift): the adaptive
+    secondary error does not grow through the drifts (1–4 s → 14–24 s: measured 2.51 → 2.43 mm, bound 1.1×, the
+    drift claim's) while the baseline's (adaptation off, same start) grows by more than 20 % (3.57 → 5.41 mm), and
+    the adaptive ends below 0.6× the baseline.  It does not reach the right design's 2.00 mm within 1.2× (1.22×):
+    the page's "partly" (σ-leakage holds the gap, test_leakage_holds_the_gap_to_the_right_design)."""
+    ts = _wrong_start(request.config.rootpath, "thesis_ch6_sine", "wrong_design_drift")
+    w, n = ts["wrong_design_drift"], ts["wrong_design_drift_nonadaptive"]
+    assert _errs(w, 14, 24)[0] < 1.1 * _errs(w, 1, 4)[0]
+    assert _errs(n, 14, 24)[0] > 1.2 * _errs(n, 1, 4)[0]  # the baseline fails the drift claim
+    assert _errs(w, 14, 24)[0] < 0.6 * _errs(n, 14, 24)[0]
+
+
+@pytest.mark.slow
+def test_leakage_holds_the_gap_to_the_right_design(request):
+    """Why the wrong start stays above the right design on the sines (page, Ch. 6): the σ-leakage (ours, 0.2 s⁻¹)
+    pulls the integral parts of the gains back to their *initial* values, so a correction of the wrong design is
+    held only by a standing error.  No drifts, 72 s: at σ = 0.2 the wrong start's secondary error at 60–72 s stays
+    above 1.2× the right design's (measured 1.89 vs 1.54 mm); at σ = 0.02 it is within (0.99 vs 0.86 mm)."""
+    def ratio(sigma):
+        def ed(raw):
+            raw["sim"]["duration"] = 72.0
+            for v in ("wrong_design", "adaptive_nodrift"):
+                raw["variants"][v].setdefault("controller", {}).setdefault("params", {})["sigma"] = sigma
+        ts = run_variants(request.config.rootpath, "thesis_ch6_sine", ed, variants=("wrong_design", "adaptive_nodrift"))
+        return _errs(ts["wrong_design"], 60, 72)[0] / _errs(ts["adaptive_nodrift"], 60, 72)[0]
+
+    assert ratio(0.2) > WITHIN
+    assert ratio(0.02) < WITHIN

@@ -59,6 +59,19 @@ def test_bounce_on_the_asymmetric_car(request):
     assert np.max(np.abs(ts["asym_mimo_mrac"].body_z)) < 0.003
 
 
+def test_braking_from_a_wrong_design(braking):
+    """Thesis: "the initial controller parameters can be chosen to be of any arbitrary values"; dive eliminated,
+    pitch adapts within 4 s.  From the stated wrong design (variant wrong_design, ours: nominal M_s +20 %, I −20 %,
+    K0 −30 %, C0 +30 %; the reference keeps the thesis's M_s, I) the MRAC keeps the peak pitch ≤ 0.2× the passive
+    dive and |pitch| < 0.2° at 4–9 s (the bounds of test_mimo_mrac_removes_most_of_the_dive; measured 0.79°,
+    0.039°); the same wrong design with adaptation off fails both (1.63°, 0.95°)."""
+    pa = np.max(np.abs(deg(braking["passive"])))
+    for k, ok in (("wrong_design", True), ("wrong_design_fixed", False)):
+        peak, settle = np.max(np.abs(deg(braking[k]))), np.max(np.abs(deg(braking[k], 4.0, 9.0)))
+        assert (peak <= 0.2 * pa) == ok, (k, peak, pa)
+        assert (settle < 0.2) == ok, (k, settle)
+
+
 def test_actuator_polarities(braking):
     """Thesis: in squat the leading (front) actuator compresses and the trailing one extends; the
     polarities reverse in braking.  Positive force pushes the body up (extends the suspension)."""
@@ -112,10 +125,10 @@ def test_road_excited_bounce_and_pitch_follow_the_reference(road):
 
 def test_adaptation_from_a_wrong_design_within_4_s(request):
     """Thesis: bounce and pitch adapt within the first 4 s from arbitrary initial parameters.  From a stated wrong
-    design (variant wrong_design, ours: nominal M_s +20 %, I −20 %, K0 −30 %, C0 +30 %; first 20 s, before the
-    manoeuvre and the drift's effect matter) the MRAC's bounce and pitch errors (to its own reference) at 4–20 s
-    are below half those of the same wrong design with adaptation off (measured 0.20 vs 0.87 mm, 0.019° vs 0.094°),
-    and already in 0–4 s below 0.6× the baseline's: the baseline fails both."""
+    design (variant wrong_design, ours: nominal M_s +20 %, I −20 %, K0 −30 %, C0 +30 %; the reference keeps the
+    thesis's M_s, I; first 20 s, before the manoeuvre and the drift's effect matter) the MRAC's bounce and pitch
+    errors at 4–20 s are below half those of the same wrong design with adaptation off, and already in 0–4 s below
+    0.6× the baseline's: the baseline fails both."""
     ts = _variants(request.config.rootpath, "thesis_ch7_road", only=("wrong_design", "wrong_design_fixed"), duration=20.0)
 
     def own(t, col, t0, t1):
@@ -127,12 +140,17 @@ def test_adaptation_from_a_wrong_design_within_4_s(request):
         assert own(ad, col, 0, 4) < 0.6 * own(off, col, 0, 4), col
 
 
-def test_dirt_road_following_is_not_reproduced(request):
+@pytest.fixture(scope="module")
+def dirt(request):
+    return _variants(request.config.rootpath, "thesis_ch7_dirt")
+
+
+def test_dirt_road_following_is_not_reproduced(dirt):
     """Thesis Sec. 7.5.2 (Fig. 7.8): on the dirt road the active car follows the reference closely.  Ours does
     not: with the braking tuning (covariance addition Q = 1e-6) the estimates drift and the bounce error grows
     past the passive car's; with Q = 0 it stays bounded but no better than the nominal design held fixed, and
     the body acceleration of every controlled car is above passive.  This pins that (see the page)."""
-    ts = _variants(request.config.rootpath, "thesis_ch7_dirt")
+    ts = dirt
     m = ts["mimo_mrac"]
     ref = m.assign(body_z=m["ctrl.ref_z"])
     e = {k: _err(t, ref, "body_z", 4, 60) for k, t in ts.items()}
@@ -141,3 +159,63 @@ def test_dirt_road_following_is_not_reproduced(request):
     assert e["mimo_mrac_q0"] > 0.8 * e["mimo_fixed"]
     assert e["mimo_mrac_q0"] < 0.7 * e["passive"]
     assert min(acc["mimo_mrac_q0"], acc["mimo_fixed"], acc["mimo_mrac"]) > acc["passive"]
+
+
+def test_dirt_road_from_a_wrong_design(dirt):
+    """From the stated wrong design (ours: nominal M_s +20 %, I −20 %, K0 −30 %, C0 +30 %; the reference keeps the
+    thesis's M_s, I) the dirt road does not show the claim either.  "Follows the reference very closely" (Fig. 7.8),
+    read as an error below half the reference's own motion (7.7 mm RMS), fails for the wrong start with q0 (measured
+    8.6 mm), for the wrong design held fixed (10.6 mm) and for the braking tuning, which drifts as from the nominal
+    start (162 mm, above passive).  The q0 estimator buys ≈ 20 % over the wrong design held (at the 0.8× line an
+    adaptation claim must reach; the ratio moves by 1.7 % under step halving, so no verdict rests on it).  This pins
+    the "not"."""
+    m = dirt["mimo_mrac"]
+    ref = m.assign(body_z=m["ctrl.ref_z"])
+    e = {k: _err(t, ref, "body_z", 4, 60) for k, t in dirt.items()}
+    motion = float(np.sqrt(np.mean(m["ctrl.ref_z"][(m.t >= 4) & (m.t < 60)] ** 2)))
+    assert np.max(np.abs(dirt["wrong_design"]["ctrl.ref_z"] - m["ctrl.ref_z"])) < 1e-12  # one reference for all
+    for k in ("wrong_design_q0", "wrong_design_fixed", "wrong_design"):
+        assert not e[k] < 0.5 * motion, (k, e[k], motion)
+    assert e["wrong_design_q0"] < 0.5 * e["passive"]  # bounded, unlike the braking tuning
+    assert e["wrong_design"] > e["passive"]
+
+
+def test_dirt_road_drives_the_beta0_inverse_estimate_to_its_bound(request, dirt):
+    """Why the Ch. 7 estimator does not adapt usefully on the dirt road (page): it regresses U[k−D] on the filtered
+    measured output a_m(q⁻¹)Y[k], which carries the road's disturbance; least squares then shrinks the coefficient of
+    that regressor, the (β0)⁻¹ diagonal that scales the whole regulator, onto its projection bound (0.2× nominal)
+    within the first 20 s, with and without covariance addition.  On the road-excited sines (little unmodelled
+    disturbance) it stays near nominal (checked on the first 20 s of thesis_ch7_road)."""
+    for k in ("mimo_mrac", "mimo_mrac_q0"):
+        t = dirt[k]
+        for c in ("ctrl.theta.14", "ctrl.theta.17"):
+            v0, v = t[c].iloc[0], t[c][t.t > 20].to_numpy()
+            assert np.all(np.abs(v / v0 - 0.2) < 0.01), (k, c)  # at the 0.2× bound (within 1 % of it)
+    road = _variants(request.config.rootpath, "thesis_ch7_road", only=("mimo_mrac",), duration=20.0)["mimo_mrac"]
+    for c in ("ctrl.theta.14", "ctrl.theta.17"):
+        assert abs(road[c].iloc[-1] / road[c].iloc[0] - 1) < 0.5, c
+
+
+@pytest.mark.slow
+def test_road_excited_full_run_from_a_wrong_design(request):
+    """The whole road-excited run (manoeuvre at 20/40 s, drifts) from the stated wrong design, the page's "partly":
+    after 4 s the bounce error stays within 1.2× the right design's in 4–20, 20–40 and 44–60 s (measured 0.20, 0.23,
+    0.16 vs 0.23, 0.32, 0.31 mm) and the dive (40–43 s) is ≤ 0.2× passive (0.50° vs 6.58°); the same wrong design with
+    adaptation off fails it (bounce 1.43, 5.38, 8.66 mm).  The pitch error stays 1.3–1.4× the right design's in 4–40 s
+    (0.019, 0.030 vs 0.014, 0.023°; a tenth of the reference's 0.18° RMS), below the baseline's in every window."""
+    ts = _variants(request.config.rootpath, "thesis_ch7_road",
+                   only=("passive", "mimo_mrac", "wrong_design", "wrong_design_fixed"))
+    m = ts["mimo_mrac"]
+    ref = m.assign(body_z=m["ctrl.ref_z"], pitch=m["ctrl.ref_pitch"])
+    dive = {k: np.degrees(np.max((t.pitch - ref.pitch)[(t.t >= 40) & (t.t < 43)])) for k, t in ts.items()}
+
+    wins = ((4, 20), (20, 40), (44, 60))
+
+    def ok(k):
+        return all(_err(ts[k], ref, "body_z", a, b) <= 1.2 * _err(m, ref, "body_z", a, b)
+                   for a, b in wins) and dive[k] < 0.2 * dive["passive"]
+
+    assert ok("wrong_design")
+    assert not ok("wrong_design_fixed")
+    for a, b in wins:
+        assert _err(ts["wrong_design"], ref, "pitch", a, b) < 0.5 * _err(ts["wrong_design_fixed"], ref, "pitch", a, b)

@@ -315,17 +315,23 @@ def ch3_dirt(ctx) -> ItemOutput:
     fa, fn = follow(a), follow(n)
     dip = float(np.min(a.body_z.to_numpy()[win(a, 0, 3)]))
     closer = all(abs(np.log10(x)) < abs(np.log10(y)) for x, y in zip(ra[1:3], rp[1:3]))
-    if "mrac_thesis" in dv:
-        e = dv["mrac_thesis"]
-        lit, t_stop = diverged_text(e), float(e.time)
-    else:
-        t_ = res["mrac_thesis"].ts
-        lit, t_stop = f"ran to the end; mean body x after 8 s {mean(t_, 'body_z', 8, 1e9) * 1000:.0f} mm", float("inf")
+    def literal(name):  # (text, stop time) of a printed-law variant: its divergence stop, or its level
+        if name in dv:
+            return diverged_text(dv[name]), float(dv[name].time)
+        t_ = res[name].ts
+        return f"ran to the end; mean body x after 8 s {mean(t_, 'body_z', 8, 1e9) * 1000:.0f} mm", float("inf")
+
+    lit, t_stop = literal("mrac_thesis")
+    lit_off, t_stop_off = literal("mrac_thesis_nonadaptive")
     claims = [
         Claim("mode II, the thesis's law as printed (scenario default `mrac_thesis`: P1 = A_m, no static-load term, "
               "nominal Θ)", "keeps the level, follows the reference (Figs. 3.11–3.14)", lit, "not",
               "the printed regulator has no constant term (see ch3_load_step): the unknown +100 kg and the softer "
               "spring's lost share of the static load pull the body down until the run's divergence stop"),
+        Claim("the printed law with the Θ adaptation off (`mrac_thesis_nonadaptive`: γ = 0, nominal Θ): the "
+              "baseline of the row above", "(adaptation is what keeps the level)", lit_off,
+              "n.a.", f"baseline; stop time with adaptation {t_stop:.2f} s, without {t_stop_off:.2f} s: no Θ of the "
+              "printed regulator (no constant term) holds a constant load"),
         Claim("mode II (+40 % M, −10 % K, C from 0 s): passive static deflection; variant `mrac_thetad` (our θ_d, "
               "P1 = (s + 20)², not in the thesis) keeps the level",
               "passive sags; adaptive shows no static deflection (Fig. 3.11)",
@@ -362,7 +368,7 @@ def ch3_dirt(ctx) -> ItemOutput:
     fig.suptitle("Thesis Ch. 3 (Figs. 3.11–3.14): dirt road, mode II unknown to the controller;\nthe printed law "
                  + (f"stopped at {t_stop:.1f} s (sinks)" if np.isfinite(t_stop) else "ran"), fontsize=9)
     fig.tight_layout()
-    key = {"thesis_stop_time": (t_stop, 0.1), "passive_level": (zp, 0.01), "mrac_level": (za, 0.01), "ratio_res": (ra[1], 0.1), "ratio_hi": (ra[3], 0.1),
+    key = {"thesis_stop_time": (t_stop, 0.1), "thesis_nonadaptive_stop_time": (t_stop_off, 0.1), "passive_level": (zp, 0.01), "mrac_level": (za, 0.01), "ratio_res": (ra[1], 0.1), "ratio_hi": (ra[3], 0.1),
            "follow_adaptive": (fa, 1e-3), "follow_nonadaptive": (fn, 1e-3)}
     return ItemOutput(claims, key=key, figure=fig, notes=[HALF_NOTE])
 
@@ -704,6 +710,18 @@ def ch7_braking(ctx) -> ItemOutput:
         polarity_claim("actuator polarities", "squat: leading compresses, trailing extends; reversed in braking",
                        a, "accelerating", b, "braking"),
     ]
+    if "wrong_design" in ts:
+        late.update({k: float(np.degrees(np.max(np.abs(ts[k].pitch.to_numpy()[win(ts[k], 4, 9)]))))
+                     for k in ("wrong_design", "wrong_design_fixed")})
+        ok = {k: pk[k] < 0.2 * pk["passive"] and late[k] < 0.2 for k in ("wrong_design", "wrong_design_fixed")}
+        claims.append(Claim(
+            "from a wrong design (nominal M_s +20 %, I −20 %, K0 −30 %, C0 +30 %; ours): dive removed (≤ 0.2× passive) "
+            "and pitch settled at 4–9 s (< 0.2°)", "initial parameters arbitrary; adapts within 4 s, dive eliminated",
+            f"peak pitch {pk['wrong_design']:.2f}°, 4–9 s {late['wrong_design']:.3f}°; adaptation off "
+            f"{pk['wrong_design_fixed']:.2f}°, {late['wrong_design_fixed']:.3f}°; right design {pk['mimo_mrac']:.2f}°, "
+            f"{late['mimo_mrac']:.3f}°", "reproduced" if ok["wrong_design"] and not ok["wrong_design_fixed"] else
+            "not shown" if ok["wrong_design"] else "not", "the baseline fails it" if not ok["wrong_design_fixed"]
+            else "the baseline passes it too"))
     fig, ax = plt.subplots(3, 1, figsize=(7.5, 7.0), sharex=True)
     for k, s in (("passive", "g-"), ("mimo_mrac", "r-"), ("asym_passive", "g--"), ("asym_mimo_mrac", "r--")):
         ax[0].plot(ts[k].t, np.degrees(ts[k].pitch), s, lw=0.8, label=k)
@@ -720,6 +738,8 @@ def ch7_braking(ctx) -> ItemOutput:
     fig.tight_layout()
     key = {"passive_dive_deg": (dive, 0.1), "mrac_pitch_deg": (pk["mimo_mrac"], 0.1),
            "asym_passive_bounce": (zb["asym_passive"], 1e-3), "asym_mrac_bounce": (zb["asym_mimo_mrac"], 1e-3)}
+    if "wrong_design" in pk:
+        key.update({"wrong_pitch_deg": (pk["wrong_design"], 0.1), "wrong_fixed_pitch_deg": (pk["wrong_design_fixed"], 0.1)})
     return ItemOutput(claims, key=key, figure=fig, notes=[HALF_NOTE])
 
 
@@ -798,24 +818,34 @@ def ch7_road(ctx) -> ItemOutput:
     ]
     key = {}
     if "wrong_design" in ts:
-        def own(t, c, t0, t1):  # to the run's own reference (built from the controller's nominal values)
-            r = t.assign(body_z=t["ctrl.ref_z"], pitch=t["ctrl.ref_pitch"])
-            return _err(t, r, c, t0, t1)
+        # errors to the common reference (the wrong design keeps the thesis's reference masses, ref_*)
+        wins = ((0, 4), (4, 20), (20, 40), (44, 60))
+        w = {(k, c, t0): _err(ts[k], ref, c, t0, t1) for k in ("wrong_design", "wrong_design_fixed", "mimo_mrac")
+             for c in ("body_z", "pitch") for t0, t1 in wins}
+        dive.update({k: float(np.degrees(np.max((ts[k].pitch.to_numpy() - ref.pitch.to_numpy())[win(ts[k], 40, 43)])))
+                     for k in ("wrong_design", "wrong_design_fixed")})
+        # the property (thesis: adapts within 4 s from arbitrary initial parameters): after 4 s the error is within
+        # 20 % of the right design's (or below), in every later window, and the dive is removed (≤ 0.2× passive)
+        reach = {k: all(w[k, c, t0] <= 1.2 * w["mimo_mrac", c, t0] for c in ("body_z", "pitch") for t0, _ in wins[1:])
+                 and dive[k] < 0.2 * dive["passive"] for k in ("wrong_design", "wrong_design_fixed")}
 
-        w = {(k, c, t0): own(ts[k], c, t0, t1) for k in ("wrong_design", "wrong_design_fixed")
-             for c in ("body_z", "pitch") for t0, t1 in ((0, 4), (4, 20))}
-        ok = all(w["wrong_design", c, 4] < 0.5 * w["wrong_design_fixed", c, 4]
-                 and w["wrong_design", c, 4] < 1.5 * e["mimo_mrac"][c] for c in ("body_z", "pitch"))
+        def row(k):
+            return (" / ".join(f"{w[k, 'body_z', t0] * 1000:.2f}" for t0, _ in wins) + " mm, pitch "
+                    + " / ".join(f"{deg(w[k, 'pitch', t0]):.3f}" for t0, _ in wins) + f"°, dive {dive[k]:.2f}°")
+        beats = all(w["wrong_design", c, t0] < w["wrong_design_fixed", c, t0] for c in ("body_z", "pitch")
+                    for t0, _ in wins) and dive["wrong_design"] < dive["wrong_design_fixed"]
         claims.append(Claim(
-            "adaptation from a wrong design (nominal M_s +20 %, I −20 %, K0 −30 %, C0 +30 %; ours), 0–4 s / 4–20 s",
-            "adapts within the first 4 s from arbitrary initial parameters",
-            f"bounce error {w['wrong_design', 'body_z', 0] * 1000:.2f} / {w['wrong_design', 'body_z', 4] * 1000:.2f} mm, "
-            f"pitch {deg(w['wrong_design', 'pitch', 0]):.3f}° / {deg(w['wrong_design', 'pitch', 4]):.3f}°; adaptation off "
-            f"{w['wrong_design_fixed', 'body_z', 0] * 1000:.2f} / {w['wrong_design_fixed', 'body_z', 4] * 1000:.2f} mm, "
-            f"{deg(w['wrong_design_fixed', 'pitch', 0]):.3f}° / {deg(w['wrong_design_fixed', 'pitch', 4]):.3f}°; "
-            f"right design {e['mimo_mrac']['body_z'] * 1000:.2f} mm, {deg(e['mimo_mrac']['pitch']):.3f}° (4–20 s)",
-            "reproduced" if ok else "not", "the RLS corrects the wrong start within the first half second"))
+            "adaptation from a wrong design (nominal M_s +20 %, I −20 %, K0 −30 %, C0 +30 %; ours): errors "
+            + ", ".join(f"{a}–{b} s" for a, b in wins) + "; dive 40–43 s",
+            "adapts within the first 4 s from arbitrary initial parameters; robust at 20 and 40 s",
+            f"wrong start: bounce {row('wrong_design')}; adaptation off: {row('wrong_design_fixed')}; right design: "
+            f"{row('mimo_mrac')}",
+            "reproduced" if reach["wrong_design"] and not reach["wrong_design_fixed"] else
+            "not shown" if reach["wrong_design"] else "partly" if beats else "not",
+            "property: after 4 s within 1.2× the right design's error in every window, dive ≤ 0.2× passive; the "
+            + ("baseline fails it" if not reach["wrong_design_fixed"] else "baseline passes it too")))
         key["wrong_design_bounce_err"] = (w["wrong_design", "body_z", 4], 1e-4)
+        key["wrong_design_dive_deg"] = (dive["wrong_design"], 0.1)
     fig, ax = plt.subplots(3, 1, figsize=(7.5, 7.5), sharex=True)
     for k, s_ in (("passive", "g-"), ("mimo_fixed", "b-"), ("mimo_mrac", "r-")):
         ax[0].plot(ts[k].t, 1000 * ts[k].body_z, s_, lw=0.5, label=k)
@@ -906,6 +936,36 @@ def ch7_dirt(ctx) -> ItemOutput:
               "reproduced" if abs(band(gains["mimo_mrac_q0"][2], 6, 12) / band(gains["reference"][2], 6, 12) - 1) < 0.3
               else "not", "the reference has 9 kN·s/m wheel-to-ground dampers no actuator between body and wheel can give"),
     ]
+    # why the braking tuning drifts (page): the RLS regresses U on the filtered measured output, which carries the
+    # road's disturbance; the (β0)⁻¹ diagonal (the gain of the whole regulator) is pulled to its lower bound
+    wkey = {}
+    thc = [c for c in m.columns if c.startswith("ctrl.theta.")]
+    npar = len(thc) // 2
+    bdiag = (f"ctrl.theta.{2 * (npar - 2)}", f"ctrl.theta.{2 * (npar - 1) + 1}")
+    b_end = {k: [float(ts[k][c].iloc[-1] / ts[k][c].iloc[0]) for c in bdiag] for k in ("mimo_mrac", "mimo_mrac_q0")}
+    t_bound = {k: float(ts[k].t.to_numpy()[np.argmax(ts[k][bdiag[0]].to_numpy() <= 0.2001 * ts[k][bdiag[0]].iloc[0])])
+               for k in ("mimo_mrac", "mimo_mrac_q0")}
+    claims.append(Claim("diagnosis: the (β0)⁻¹ diagonal estimate (it scales the whole regulator), end / start",
+                        "(not in the thesis)", "; ".join(f"{k}: {b[0]:.2f}, {b[1]:.2f} (front-bounce entry at the 0.2× "
+                                                         f"bound from {t_bound[k]:.1f} s)" for k, b in b_end.items()),
+                        "n.a.", "pulled down to the projection bound by the road disturbance in the regressor (page)"))
+    if "wrong_design" in ts:
+        wn = ("wrong_design", "wrong_design_q0", "wrong_design_fixed")
+        ew = {k: {c: _err(ts[k], ref, c, 4, 60) for c in ("body_z", "pitch")} for k in wn}
+        ew0 = {k: _err(ts[k], ref, "body_z", 0, 4) for k in wn + ("mimo_mrac", "mimo_mrac_q0", "mimo_fixed")}
+        ok_w = ew["wrong_design_q0"]["body_z"] < min(0.5 * e["passive"]["body_z"], 0.8 * ew["wrong_design_fixed"]["body_z"])
+        claims.append(Claim(
+            "from a wrong design (nominal M_s +20 %, I −20 %, K0 −30 %, C0 +30 %; ours): bounce error 0–4 s / 4–60 s",
+            "initial parameters arbitrary; adapts within 4 s, follows closely",
+            f"wrong start {ew0['wrong_design'] * 1000:.1f} / {ew['wrong_design']['body_z'] * 1000:.1f} mm, q0 "
+            f"{ew0['wrong_design_q0'] * 1000:.1f} / {ew['wrong_design_q0']['body_z'] * 1000:.1f} mm, adaptation off "
+            f"{ew0['wrong_design_fixed'] * 1000:.1f} / {ew['wrong_design_fixed']['body_z'] * 1000:.1f} mm; right design "
+            f"{ew0['mimo_mrac'] * 1000:.1f} / {e['mimo_mrac']['body_z'] * 1000:.1f}, q0 {ew0['mimo_mrac_q0'] * 1000:.1f} / "
+            f"{e['mimo_mrac_q0']['body_z'] * 1000:.1f}, off {ew0['mimo_fixed'] * 1000:.1f} / "
+            f"{e['mimo_fixed']['body_z'] * 1000:.1f} mm", "reproduced" if ok_w else "not",
+            "q0 from the wrong start must beat the wrong design held fixed (0.8×) and passive (0.5×)"))
+        wkey = {"wrong_q0_bounce_err": (ew["wrong_design_q0"]["body_z"], 1e-3),
+                "wrong_fixed_bounce_err": (ew["wrong_design_fixed"]["body_z"], 1e-3)}
     table = md_table(["leading travel / w_f", *[f"{lo}–{hi} Hz" for lo, hi in bands], "tire defl. / w_f 6–12 Hz"], rows)
     fig, ax = plt.subplots(2, 2, figsize=(9, 6.5))
     for k, s_ in (("passive", "g-"), ("mimo_fixed", "b-"), ("mimo_mrac", "r-"), ("mimo_mrac_q0", "m-")):
@@ -927,7 +987,7 @@ def ch7_dirt(ctx) -> ItemOutput:
     fig.tight_layout()
     key = {"mrac_bounce_err": (e["mimo_mrac"]["body_z"], 1e-3), "q0_bounce_err": (e["mimo_mrac_q0"]["body_z"], 1e-3),
            "fixed_bounce_err": (e["mimo_fixed"]["body_z"], 1e-3), "passive_bounce_err": (e["passive"]["body_z"], 1e-3),
-           "q0_acc": (acc["mimo_mrac_q0"], 0.1)}
+           "q0_acc": (acc["mimo_mrac_q0"], 0.1), **wkey}
     return ItemOutput(claims, key=key, figure=fig, notes=[HALF_NOTE], tables=[table])
 
 
@@ -1087,6 +1147,48 @@ def ch5(ctx) -> ItemOutput:
 
 # ---- Ch. 6 ------------------------------------------------------------------------------------------------
 
+# (early, late) windows of the wrong-start comparison: the first and last bump, the first 3 s and the last 10 s of
+# the sines (after the drifts), the first 3.5 s and the last 8 s of the random road
+WINDOWS_CH6 = {"bump": ((1.0, 3.0), (9.0, 12.0)), "sine": ((1.0, 4.0), (14.0, 24.0)), "random": ((0.5, 4.0), (12.0, 20.0))}
+# "the convergence is independent of the initial values" (Sec. 6.9), read as: from a wrong start the late error is
+# within 20 % of the right design's (ours: the tolerance of "approaching the known-parameter case", issue 12)
+WITHIN = 1.2
+
+
+def _ch6_wrong_start(short, ts, wrong, right, windows):
+    """Claim: from the stated wrong design (K_s −30 %, K_p +30 %, C_s +30 %, C0_p −30 %; the reference kept) the
+    rattle-space errors reach the right design's (late error ≤ WITHIN × the right design's), while the same wrong
+    design with adaptation off (the baseline) does not."""
+    (e0, e1), (l0, l1) = windows
+    off = wrong + "_nonadaptive"
+
+    def err(k, j, a, b):
+        t = ts[k]
+        col = ("travel_secondary", "travel_primary")[j]
+        return rms((t[col] - t[f"ctrl.ref_z.{j}"]).to_numpy()[win(t, a, b)])
+
+    e = {(k, j): (err(k, j, e0, e1), err(k, j, l0, l1)) for k in (wrong, off, right) for j in (0, 1)}
+    acc = {k: rms(ts[k].body_acc.to_numpy()[win(ts[k], l0, l1)]) for k in (wrong, off, right)}
+    reach = all(e[wrong, j][1] <= WITHIN * e[right, j][1] for j in (0, 1))
+    base_fails = all(e[off, j][1] > WITHIN * e[right, j][1] for j in (0, 1))
+    verdict = ("reproduced" if reach and base_fails else "not shown" if reach else
+               "partly" if all(e[wrong, j][1] < e[off, j][1] for j in (0, 1)) else "not")
+
+    def pair(k):
+        return " / ".join(f"{e[k, j][0] * 1000:.2f} → {e[k, j][1] * 1000:.2f}" for j in (0, 1))
+
+    c = Claim(f"{short}: adaptation from a wrong design (K_s −30 %, K_p +30 %, C_s +30 %, C0_p −30 %; ours), "
+              f"rattle-space errors secondary / primary, {e0:g}–{e1:g} s → {l0:g}–{l1:g} s",
+              "the initial controller parameters can be arbitrary: convergence independent of them (Sec. 6.9)",
+              f"wrong start {pair(wrong)} mm (body acc {acc[wrong]:.2f} m/s²); adaptation off {pair(off)} mm "
+              f"({acc[off]:.2f}); right design {pair(right)} mm ({acc[right]:.2f})", verdict,
+              f"property: late error ≤ {WITHIN}× the right design's; " + (
+                  "the baseline fails it" if base_fails else "the baseline passes it too: the wrong design hardly "
+                  "matters here"))
+    return c, {f"{short}_wrong_secondary_err": (e[wrong, 0][1], 1e-3), f"{short}_wrong_primary_err": (e[wrong, 1][1], 1e-3)}
+
+
+
 def ch6(ctx) -> ItemOutput:
     import matplotlib.pyplot as plt
 
@@ -1148,6 +1250,11 @@ def ch6(ctx) -> ItemOutput:
                                 "reproduced" if acc_st < 1.5 * acc_ref and e_st < 0.8 * e[sec]["nonadaptive"] else "not",
                                 "the printed laws' K_v drift breaks the nominal cancellation of the primary's motion"))
             key[f"{short}_structured_acc"] = (acc_st, 0.1)
+        wv = "wrong_design_drift" if short == "sine" else "wrong_design"
+        if wv in ts:
+            c, k_ = _ch6_wrong_start(short, ts, wv, "adaptive", WINDOWS_CH6[short])
+            claims.append(c)
+            key.update(k_)
         if short == "sine":
             # parameter variations mode I: springs drift from T/6, dampers blow off at T/2 (T = 24 s)
             before = {k: rms((t[sec] - a["ctrl.ref_z.0"]).to_numpy()[win(t, 1, 4)]) for k, t in ts.items()}
@@ -1160,25 +1267,10 @@ def ch6(ctx) -> ItemOutput:
                                 "reproduced" if (after["adaptive"] < 1.1 * before["adaptive"]
                                                  and after["nonadaptive"] > 1.2 * before["nonadaptive"]) else "not",
                                 "the error itself stays above the reference signal (row above)"))
-            if "wrong_design" in ts:
-                def own(t, j, t0, t1):  # to the run's own reference (it is built from the controller's nominal values)
-                    col = ("travel_secondary", "travel_primary")[j]
-                    return rms((t[col] - t[f"ctrl.ref_z.{j}"]).to_numpy()[win(t, t0, t1)])
-
-                wa, wn = ts["wrong_design"], ts["wrong_design_nonadaptive"]
-                w = {(k, j): (own(t, j, 1, 4), own(t, j, 14, 24)) for k, t in (("ad", wa), ("na", wn)) for j in (0, 1)}
-                ok = all(w["ad", j][1] < 0.85 * w["ad", j][0] and w["ad", j][1] < 0.7 * w["na", j][1] for j in (0, 1))
-                claims.append(Claim(
-                    "sine, no drifts: adaptation from a wrong design (K_s −30 %, K_p +30 %, C_s +30 %, C0_p −30 %; "
-                    "rattle-space errors 1–4 s → 14–24 s, secondary / primary)",
-                    "the initial controller parameters can be arbitrary; adaptation reaches the reference",
-                    f"adaptive {w['ad', 0][0] * 1000:.2f} → {w['ad', 0][1] * 1000:.2f} / {w['ad', 1][0] * 1000:.2f} → "
-                    f"{w['ad', 1][1] * 1000:.2f} mm; adaptation off {w['na', 0][0] * 1000:.2f} → {w['na', 0][1] * 1000:.2f}"
-                    f" / {w['na', 1][0] * 1000:.2f} → {w['na', 1][1] * 1000:.2f} mm",
-                    "partly" if ok else "not",
-                    "improves and beats adaptation off, but in 24 s stays above the right design's 14–24 s error "
-                    "without drifts (1.55 / 1.77 mm, measured once)"))
-                key["sine_wrong_design_secondary_err"] = (w["ad", 0][1], 1e-3)
+            if "wrong_design" in ts and "adaptive_nodrift" in ts:
+                c, k_ = _ch6_wrong_start("sine, no drifts", ts, "wrong_design", "adaptive_nodrift", WINDOWS_CH6["sine"])
+                claims.append(c)
+                key.update({kk.replace("sine, no drifts", "sine_nodrift"): v for kk, v in k_.items()})
             us, up = rms(a.actuator_force_secondary.to_numpy()[m]), rms(a.actuator_force_primary.to_numpy()[m])
             claims.append(Claim("sine: primary actuator force larger than the secondary's (Fig. 6.12)",
                                 "u_p larger; u_s small, high frequency", f"RMS u_p {up:.0f} N, u_s {us:.0f} N",
