@@ -175,7 +175,7 @@ def _wrong_start(root, name, wrong, edit=None):
 def test_wrong_start_on_the_random_road_reaches_the_right_design(request):
     """Thesis Sec. 6.9: "the convergence of the adaptive scheme is independent of the initial values".  On the
     random road (the scenario's 20 s) from the stated wrong design (K_s −30 %, K_p +30 %, C_s +30 %, C0_p −30 %) the
-    secondary rattle-space error at 12–20 s is within 20 % of the right design's (measured 0.42 vs 0.38 mm), while
+    secondary rattle-space error at 12–20 s is within 20 % of the right design's (measured 0.42 vs 0.36 mm), while
     the same wrong design with adaptation off (the baseline) is not (0.88 mm).  (The primary error sits at 1.2× the
     right design's, the page's "partly"; the body acceleration is the printed laws' K_v drift,
     test_random_road_acceleration_comes_from_the_kv_drift.)"""
