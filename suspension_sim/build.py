@@ -22,6 +22,7 @@ from typing import Sequence
 import mujoco
 import numpy as np
 
+from . import buffers
 from .actuators.base import ActuatorContext
 from .components import stack_params, validate_params
 from .config import EFFECT_PREFIX, Scenario, effect_labels, effect_variation_target
@@ -398,8 +399,8 @@ class System:
         n, nc = self.plant.n, self.plant.nc
         L = k1 - k0
         t = (np.arange(k0 - 1, k1 + 1)) * self.dt  # one extra sample each side (RK4's second differences)
-        z = np.empty((L + 2, n, nc))
-        zd = np.empty((L, n, nc))
+        z = buffers.empty((L + 2, n, nc))  # a buffer of an earlier chunk that is no longer read (no fresh pages)
+        zd = buffers.empty((L, n, nc))
         groups: dict = {}  # (road type, speed law, axle offset, track) -> (speed profile, {road: wheels})
         for i, (road, sp) in enumerate(zip(self.roads, self.speeds)):
             key = getattr(sp, "key", id(sp))

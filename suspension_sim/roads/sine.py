@@ -83,9 +83,19 @@ class Sine(Road):
 def sine_law(s, amplitude, k, phase, fade_in):
     """(height, d height/ds) of A·(sin(k s + φ) − sin φ) for s ≥ 0 (0 before), times a cosine fade-in of
     ``fade_in`` (None: none); the parameters are numbers, or columns broadcasting with ``s`` (many roads)."""
-    arg = k * s + phase
-    z = amplitude * (np.sin(arg) - np.sin(phase))
-    dz = amplitude * k * np.cos(arg)
+    # the same operations as amplitude·(sin(k s + φ) − sin φ) and (amplitude·k)·cos(k s + φ), written into two
+    # arrays instead of seven fresh temporaries (each a few MB for a batch chunk, faulted in page by page)
+    arg = k * s
+    if isinstance(arg, np.ndarray) and arg.ndim:
+        arg += phase
+        z = np.sin(arg)
+        z -= np.sin(phase)
+        np.multiply(amplitude, z, out=z)
+        dz = np.cos(arg, out=arg)
+        np.multiply(amplitude * k, dz, out=dz)
+    else:  # a single number
+        arg = arg + phase
+        z, dz = amplitude * (np.sin(arg) - np.sin(phase)), amplitude * k * np.cos(arg)
     if fade_in is not None:
         w = cosine_window(s, fade_in)
         z, dz = z * w, dz * w + z * cosine_window_rate(s, fade_in)
