@@ -205,7 +205,8 @@ def run_case(name, seed=0, out=None, log=None):
             "unexplained": rep.get("unexplained_x_floor"), "proposal": (rep.get("proposal") or {}).get("equation"),
             "worse_channels": worse, "params": {e["name"]: e["parameters"] for e in rep["effects"]},
             "notes": {e["name"]: e.get("notes") or {} for e in rep["effects"]}, "wall": wall,
-            "verdict": rep["verdict"]}
+            "verdict": rep["verdict"],
+            "pairs_tried": [(t["round"], t["name"]) for t in rep["candidates"] if "+" in t["name"]]}
 
 
 def _ux(r):

@@ -27,6 +27,10 @@ def test_compound_friction_and_bump_stops_both_named(tmp_path):
     r = _run("compound", tmp_path)
     assert r["exact"], r
     assert r["shrink"] > 0.8 and not r["worse_channels"], r
+    # the floor from the final residual's top band, not the record's (which holds the friction's broadband
+    # force: body acceleration 0.0258 against a true 0.0199 before)
+    for c, f in r["floor_est"].items():
+        assert abs(f / r["floor_true"][c] - 1) < 0.25, (c, r)
 
 
 def test_heavier_car_named_as_mass_from_its_sag(tmp_path):
@@ -63,6 +67,9 @@ def test_own_vehicle_on_bumps_with_pink_and_brown_noise_finds_the_one_sided_stop
     assert abs(p["gap_compression"] - 0.025) < 0.002 and abs(p["stiffness"] / 1.5e5 - 1) < 0.15, r
     assert "gap_extension" in r["notes"]["bump_stop"] and "no extension stop" in r["verdict"], r
     assert r["unexplained"] is None and r["shrink"] > 0.7, r
+    # the floor is re-estimated once the stop is in: round 2 no longer reads "4.3× the floor" (the top band of
+    # pink and brown noise) and runs no pair beam
+    assert not [p for p in r["pairs_tried"] if p[0] >= 2], r
 
 
 def test_own_vehicle_on_bumps_null_names_nothing(tmp_path):
