@@ -301,10 +301,11 @@ def test_a_screened_candidate_is_judged_again_on_the_whole_training_part():
     floor = np.array([0.0013])
     screened = dict(d_bic=-6.3, test_before=0.0076, test_after=0.0068, excess_before=0.0075, excess_after=0.0067, z=11.8)
     for name, ok in (("good", True), ("useless", False)):
-        tr = Trial("quadratic_damping", 2, True, kept=True, **screened)
+        tr = Trial("quadratic_damping", 2, True, kept=True, z_spectral=9.0, **screened)
         e_cur = sel._test_errors(fits["current"])
         assert sel._confirm(tr, fits[name], fits["current"], e_cur, floor, [cand]) is ok
-        assert tr.kept is ok and tr.screened == screened
+        assert tr.kept is ok and {k: tr.screened[k] for k in screened} == screened
+        assert np.isfinite(tr.z_spectral) and tr.z_spectral != tr.screened["z_spectral"]
         assert tr.test_before == pytest.approx(0.0066, rel=1e-3)
         assert tr.test_after == pytest.approx(level[name], rel=1e-3)
         assert ok or "rejected on the whole training part" in tr.reason

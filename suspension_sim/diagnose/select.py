@@ -571,14 +571,14 @@ class Selector:
         again against the current whole-window model by the same gate.  The trial's evidence becomes the
         whole-window one (the screening one is kept in ``tr.screened``); when it fails, the trial is not kept."""
         screened = {k: getattr(tr, k) for k in ("d_bic", "test_before", "test_after", "excess_before",
-                                                 "excess_after", "z")}
+                                                 "excess_after", "z", "z_spectral")}
         chk = Trial(tr.name, tr.round, True)
         self._judge(chk, fr, current, e_cur, floor_n, [s for c in cands for s in c.size_names])
         for k in screened:
             setattr(tr, k, getattr(chk, k))
         tr.bic, tr.aic, tr.replaces, tr.screened = chk.bic, chk.aic, chk.replaces, screened
         self.log(f"  whole training part: {tr.name} ΔBIC {chk.d_bic:.1f}  test NRMSE {chk.test_before:.4f} → "
-                 f"{chk.test_after:.4f}  z {chk.z:.1f}  {'confirmed' if chk.kept else chk.reason or 'not kept'}")
+                 f"{chk.test_after:.4f}  z {chk.z:.1f} / {chk.z_spectral:.1f}  {'confirmed' if chk.kept else chk.reason or 'not kept'}")
         if not chk.kept:
             tr.kept = False
             tr.reason = ("kept on the screening window, rejected on the whole training part: "
