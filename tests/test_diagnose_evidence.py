@@ -163,34 +163,6 @@ def test_the_gate_keeps_a_rare_stop_while_other_model_error_remains():
     assert tr.kept, tr.reason
 
 
-def test_the_top_band_floor_is_read_from_the_residual_not_from_the_record():
-    """Coulomb friction puts broadband force into the body acceleration: the record's own top band reads it
-    as noise (compound hard case: 0.0258 against a true 0.0199).  Once the model reproduces it, the top band
-    of the residual is the noise."""
-    import types
-
-    from suspension_sim.diagnose.select import Selector, noise_floor
-
-    outs = ["body_acc", "wheel_acc", "susp_travel"]
-    d = truth.simulate_truth("quarter_car", 7, 1000, {"coulomb_friction": {"force": 150.0}}, seed=2, road_rms=0.03,
-                             noise=0.02, outputs=outs)
-    Y = np.column_stack([d[c] for c in outs])
-    clean = np.column_stack([d["_clean"][c] for c in outs])
-    true = np.std(Y - clean, axis=0)
-    sel = Selector.__new__(Selector)
-    sel.prob = types.SimpleNamespace(channels=outs, Y=Y, scale=np.std(Y, axis=0), simulate=lambda spec, P: clean)
-    sel.rec = types.SimpleNamespace(inputs={"road": d["road"]}, fs=1000.0)
-    sel.train, sel.user_floors = (0, len(Y)), {}
-    floors = {}
-    for i, c in enumerate(outs):
-        v = noise_floor(Y[:, i], 1000.0)
-        floors[c] = {"value": v, "source": "estimated (PSD top band)", "top_band": v, "nrmse": v / sel.prob.scale[i]}
-    assert floors["body_acc"]["value"] > 1.2 * true[0]  # the record's top band holds the friction's force
-    sel.recolour(floors, types.SimpleNamespace(spec=None, P={}, offsets=None))
-    for i, c in enumerate(outs):
-        assert abs(floors[c]["value"] / true[i] - 1) < 0.1, (c, floors[c], true[i])
-
-
 def test_the_top_band_floor_of_a_short_record_is_not_biased_low():
     """The top-band estimate takes the median of Welch bins, which for few segments lies below their mean:
     white noise of 2 800 samples (a half car's training part at 500 Hz) read 4 % low on average."""

