@@ -155,6 +155,7 @@ def test_the_gate_keeps_a_rare_stop_while_other_model_error_remains():
     sel = Selector.__new__(Selector)
     sel.rec, sel.prob = types.SimpleNamespace(kind="quarter_car"), types.SimpleNamespace(channels=["a", "s"])
     sel.z_min, sel.min_rel_drop, sel.min_excess_drop = 2.0, 0.05, 0.10
+    sel.spectral_gate = True  # off by default: it let a stand-in stop through in the matrix (docs/diagnose.md)
     e_cur, e_new = e_lin + other, e_true + other
     sel._test_errors = lambda fr: e_new
     tr = Trial("bump_stop", 1, True)

@@ -310,6 +310,8 @@ def _with_fit(spec: ModelSpec, fr: FitResult) -> ModelSpec:
 
 
 class Selector:
+    spectral_gate = False  # the spectral z decides too (off: the matrix's two:coulomb+cubic then named a
+    # stand-in bump stop beside the true pair in both seeds; with the block test alone it names the pair)
     def __init__(self, rec: Record, spec: ModelSpec, split: float = 0.7, test_record: Record | None = None,
                  floors: dict | None = None, candidates: list[str] | None = None, max_effects: int = 3,
                  screen_samples: int = 8000, min_excess_drop: float = 0.10, z_min: float = 2.0,
@@ -468,7 +470,7 @@ class Selector:
         at_floor = not xb > 0
         # significant: over contiguous blocks, or against the noise in the residual's spectrum (an effect
         # acting on few samples: the blocks it is not in dilute the block test), or half the excess removed
-        signif = z > self.z_min or tr.z_spectral > self.z_min or xa <= 0.5 * xb
+        signif = z > self.z_min or (self.spectral_gate and tr.z_spectral > self.z_min) or xa <= 0.5 * xb
         ok = bool(tr.d_bic < 0 and signif and xa <= (1 - self.min_excess_drop) * xb and not at_floor
                   and Ea <= (1 - self.min_rel_drop) * Eb and not worse and not zero)
         tr.kept = ok and not unsep
