@@ -174,6 +174,35 @@ def sosfilt_rows(sos: np.ndarray, x: np.ndarray, zi: np.ndarray, step: int = 1) 
     return _sosfilt_blocks(np.ascontiguousarray(sos, dtype=np.float64), x, zi, int(step))
 
 
+@numba.njit(cache=True, nogil=True, inline="always")
+def _state_in(zi, r0, nb, z0, z1):  # pragma: no cover - compiled
+    """A block of cars' filter states from ``zi`` (sections, cars, 2) into ``z0``, ``z1`` (sections, block)."""
+    for s in range(zi.shape[0]):
+        for j in range(nb):
+            z0[s, j] = zi[s, r0 + j, 0]
+            z1[s, j] = zi[s, r0 + j, 1]
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _state_out(zi, r0, nb, z0, z1):  # pragma: no cover - compiled
+    for s in range(zi.shape[0]):
+        for j in range(nb):
+            zi[s, r0 + j, 0] = z0[s, j]
+            zi[s, r0 + j, 1] = z1[s, j]
+
+
+@numba.njit(cache=True, nogil=True, inline="always")
+def _biquads(sos, z0, z1, xc, nb):  # pragma: no cover - compiled
+    """One sample ``xc`` of a block of cars through every section: scipy's _sosfilt, term by term (a0 = 1)."""
+    for s in range(sos.shape[0]):
+        b0, b1, b2, a1, a2 = sos[s, 0], sos[s, 1], sos[s, 2], sos[s, 4], sos[s, 5]
+        for j in range(nb):
+            xn = b0 * xc[j] + z0[s, j]
+            z0[s, j] = b1 * xc[j] - a1 * xn + z1[s, j]
+            z1[s, j] = b2 * xc[j] - a2 * xn
+            xc[j] = xn
+
+
 @numba.njit(cache=True, nogil=True)
 def _sosfilt_blocks(sos, x, zi, step):  # pragma: no cover - compiled
     n_rows, n = x.shape
@@ -185,27 +214,15 @@ def _sosfilt_blocks(sos, x, zi, step):  # pragma: no cover - compiled
     xc = np.empty(B)
     for r0 in range(0, n_rows, B):
         nb = min(B, n_rows - r0)
-        for s in range(ns):
-            for j in range(nb):
-                z0[s, j] = zi[s, r0 + j, 0]
-                z1[s, j] = zi[s, r0 + j, 1]
+        _state_in(zi, r0, nb, z0, z1)
         for k in range(n):
             for j in range(nb):
                 xc[j] = x[r0 + j, k]
-            for s in range(ns):
-                b0, b1, b2, a1, a2 = sos[s, 0], sos[s, 1], sos[s, 2], sos[s, 4], sos[s, 5]
-                for j in range(nb):  # scipy's _sosfilt, term by term (a0 = 1)
-                    xn = b0 * xc[j] + z0[s, j]
-                    z0[s, j] = b1 * xc[j] - a1 * xn + z1[s, j]
-                    z1[s, j] = b2 * xc[j] - a2 * xn
-                    xc[j] = xn
+            _biquads(sos, z0, z1, xc, nb)
             if k % step == 0:
                 for j in range(nb):
                     out[r0 + j, k // step] = xc[j]
-        for s in range(ns):
-            for j in range(nb):
-                zi[s, r0 + j, 0] = z0[s, j]
-                zi[s, r0 + j, 1] = z1[s, j]
+        _state_out(zi, r0, nb, z0, z1)
     return out
 
 
@@ -249,10 +266,7 @@ def _upfir_sos_blocks(sos, seg, q0, q1, up, flip, hpp, pre, zi):  # pragma: no c
     ext = np.empty((n_in + 2 * hpp, B))  # the block's segment, car innermost, extended by its end values
     for r0 in range(0, n_rows, B):
         nb = min(B, n_rows - r0)
-        for s in range(ns):
-            for j in range(nb):
-                z0[s, j] = zi[s, r0 + j, 0]
-                z1[s, j] = zi[s, r0 + j, 1]
+        _state_in(zi, r0, nb, z0, z1)
         for j in range(nb):
             for i in range(hpp):
                 ext[i, j] = seg[r0 + j, 0]
@@ -269,21 +283,13 @@ def _upfir_sos_blocks(sos, seg, q0, q1, up, flip, hpp, pre, zi):  # pragma: no c
                 hm = flip[h0 + m]
                 for j in range(nb):
                     xc[j] = xc[j] + ext[e0 + m, j] * hm
-            for s in range(ns):
-                b0, b1, b2, a1, a2 = sos[s, 0], sos[s, 1], sos[s, 2], sos[s, 4], sos[s, 5]
-                for j in range(nb):  # scipy's _sosfilt, term by term (a0 = 1)
-                    xn = b0 * xc[j] + z0[s, j]
-                    z0[s, j] = b1 * xc[j] - a1 * xn + z1[s, j]
-                    z1[s, j] = b2 * xc[j] - a2 * xn
-                    xc[j] = xn
+            _biquads(sos, z0, z1, xc, nb)
             if (q - q0) % up == 0:
                 for j in range(nb):
                     out[r0 + j, (q - q0) // up] = xc[j]
-        for s in range(ns):
-            for j in range(nb):
-                zi[s, r0 + j, 0] = z0[s, j]
-                zi[s, r0 + j, 1] = z1[s, j]
+        _state_out(zi, r0, nb, z0, z1)
     return out
+
 
 class WeightedStream:
     """:func:`weighted_rows` of a signal that arrives in chunks (``(n_cars, rows)`` each): :meth:`push` returns
