@@ -190,6 +190,10 @@ class System:
         self.rk4 = sim.integrator == "RK4"
         P = self.plant
         n, nc = P.n, P.nc
+        # the period-mean accelerometers' dofs (body and wheels) and period (sensors.base.period_mean_acc)
+        self.acc_dofs = np.ascontiguousarray(np.concatenate([d.ravel() for d in (P.body_v, P.wheel_v) if d is not None]),
+                                             dtype=np.int64)
+        self.acc_period = self.sub * self.dt
         self.geom = P.geometry
         m = P.model
         ks = m.tendon_stiffness[P.susp_t]
@@ -403,7 +407,7 @@ class System:
         zd = buffers.empty((L, n, nc))
         groups: dict = {}  # (road type, speed law, axle offset, track) -> (speed profile, {road: wheels})
         for i, (road, sp) in enumerate(zip(self.roads, self.speeds)):
-            key = getattr(sp, "key", id(sp))
+            key = sp.key
             for c in range(nc):
                 g = groups.setdefault((type(road), key, float(self.corner_back[i, c]), self.geom.tracks[c]), (sp, {}))
                 g[1].setdefault(id(road), (road, []))[1].append((i, c))
@@ -479,14 +483,10 @@ class System:
         for j, ch in enumerate(self.sensors):
             ch.rng = self.sensor_rng(j, ch.rng)  # the noise streams start over too: a run started again repeats
             ch.reset()
-        # the period-mean accelerometers (sensors.base.period_mean_acc): the body and wheel dofs, their
-        # velocities at the last control instant (before the first: the initial ones) and the means
-        P = self.plant
-        self.acc_dofs = np.ascontiguousarray(np.concatenate([d.ravel() for d in (P.body_v, P.wheel_v) if d is not None]),
-                                             dtype=np.int64)
-        self.v_ctrl = P.data.qvel.copy()
-        self.acc_mean = np.zeros(P.model.nv)
-        self.acc_period = self.sub * self.dt
+        # the period-mean accelerometers' state (sensors.base.period_mean_acc): the velocities at the last control
+        # instant (before the first: the initial ones) and the means
+        self.v_ctrl = self.plant.data.qvel.copy()
+        self.acc_mean = np.zeros(self.plant.model.nv)
 
     def sensor_rng(self, j: int, current=None) -> "PerCarRNG":
         """The noise generator of sensor ``j`` at the start of a run: one stream per car, seeded by the car's

@@ -751,14 +751,13 @@ def run_steps(sim, mode: str, progress=None, logger=None):
         maxd = int(sens["delay"].max()) if ns else 0
         ring = np.zeros((n, max(ns, 1), maxd + 1, maxk))
         c_p, c_st = (_f64(x) for x in ctrl_data)
-        c_p, c_pi = _shared_rows(c_p)
         csig = ctrl.kernel_signals()
         ctrl_widths = [(nm, b - a) for nm, (a, b) in csig.items()]
         ctrl_j = np.array([j for a, b in csig.values() for j in range(a, b)], dtype=np.int64)
     else:
         sens_cols, noise, ring, ytot = np.zeros((ns, 1), np.int64), np.zeros((n, 1)), np.zeros((n, 1, 1, 1)), 0
         c_p, c_st, ctrl_widths, ctrl_j = np.zeros((n, 1)), np.zeros((n, 0)), [], np.zeros(0, np.int64)
-        c_p, c_pi = _shared_rows(c_p)
+    c_p, c_pi = _shared_rows(c_p)
 
     sens_tmp = np.zeros((max(ns, 1), 4), np.int64)
     sensor_code = [(int(sens["field"][j]), bool(sens["delay"][j] == 0 and sens["hold"][j] == 1 and sens["std"][j] == 0
