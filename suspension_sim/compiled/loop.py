@@ -195,23 +195,24 @@ def field_value(f, col, aux, i, jr, qpos, qvel, ten_len, ten_vel, acc, accm, bod
         return qpos[body_q[i, col]]
     if f == 1:
         return qvel[body_v[i, col]]
-    if f == 2:
-        return acc[body_v[i, col]]
+    if f == 2 or f == 16:  # the last step's acceleration, or its period mean (sampling: period_mean)
+        return (accm if f == 16 else acc)[body_v[i, col]]
     if f == 3:
         return ten_len[susp_t[i, col]] + qpos[wheel_q[i, col]]
     if f == 4:
         return ten_vel[susp_t[i, col]] + qvel[wheel_v[i, col]]
-    if f == 5:
+    if f == 5 or f == 17:
+        a = accm if f == 17 else acc
         s = 0.0
         for b in range(body_v.shape[1]):
-            s += Jb[i, col, b] * acc[body_v[i, b]]
+            s += Jb[i, col, b] * a[body_v[i, b]]
         return s
     if f == 6:
         return qpos[wheel_q[i, col]]
     if f == 7:
         return qvel[wheel_v[i, col]]
-    if f == 8:
-        return acc[wheel_v[i, col]] if has_tire else 0.0
+    if f == 8 or f == 18:
+        return (accm if f == 18 else acc)[wheel_v[i, col]] if has_tire else 0.0
     if f == 9:
         return ten_len[susp_t[i, col]]
     if f == 10:
@@ -231,15 +232,6 @@ def field_value(f, col, aux, i, jr, qpos, qvel, ten_len, ten_vel, acc, accm, bod
         return 0.0
     if f == 14:
         return F_act[i, col]
-    if f == 16:  # the period means (sampling: period_mean), as fields 2, 5, 8 of the last step's acceleration
-        return accm[body_v[i, col]]
-    if f == 17:
-        s = 0.0
-        for b in range(body_v.shape[1]):
-            s += Jb[i, col, b] * accm[body_v[i, b]]
-        return s
-    if f == 18:
-        return accm[wheel_v[i, col]] if has_tire else 0.0
     return a_st[i, col, aux]
 
 
