@@ -60,6 +60,28 @@ def test_step_halving_flags_a_step_dependent_number():
     assert change == pytest.approx(0.05 / 1.1) and change > fw.CONVERGENCE_TOL
 
 
+def test_a_mean_whose_spread_spans_the_bound_is_undecided_not_converged():
+    """A statistical key number (value, floor, standard error): Fallah's 5 m near-sgn ideal mean moved 1.9 % with
+    0.8 % s.e. of the change (512 realisations) -> "undecided", not a pass; with a small s.e. the same change
+    passes, and a change whose whole 1-s.e. band lies above 2 % fails.  A plain key number keeps its rule."""
+    def item(se_rel, change):
+        def run(ctx):
+            v = 2.183 * (1 + change * (ctx.step_factor == 0.5))
+            se = se_rel * 2.183 / np.sqrt(2)
+            return fw.ItemOutput([], key={"m": (v, 0.05, se), "plain": (1.0 + 0.001 * ctx.step_factor, 0.01)})
+        return fw.Item("x", "x", run)
+
+    for se_rel, change, status in ((0.008, 0.019, "undecided"), (0.001, 0.019, "converged"),
+                                   (0.004, 0.025, "not converged")):
+        r = fw.run_item(item(se_rel, change), converge=True)
+        assert r["conv_se"]["m"] == pytest.approx(se_rel, rel=1e-9)
+        s = fw.summary(r)["convergence"]
+        assert s["m"]["status"] == status and s["m"]["converged"] == (status == "converged")
+        assert s["plain"]["converged"] and "status" not in s["plain"]
+        md = fw.item_markdown(fw.Source("s", "s", "p", []), fw.Item("x", "x", None), r)
+        assert f"Step halving: {'NOT converged' if status == 'not converged' else status}" in md
+        assert f"({status})" in md
+
 def test_half_step_run_halves_the_step_of_every_variant():
     """The convergence run uses exactly half the scenario's physics and control step, variants included."""
     def item(ctx):

@@ -172,3 +172,48 @@ def test_mrac_level_under_the_changes_is_theta_d_not_the_adaptation(varying):
         return float(np.sqrt(np.mean((ts.body_z.to_numpy() - ref)[m] ** 2)))
 
     assert not follow("mrac_thetad") < 0.8 * follow("mrac_thetad_nonadaptive")  # measured 51.5 vs 52.0 mm
+
+
+def _work(ts, t0=6.0):
+    s = ts[ts.t > t0]
+    return float(np.mean(np.abs(s.actuator_force * s.travel_rate)))
+
+
+def test_nominal_mrac_numbers_are_the_nominal_design_not_the_adaptation(nominal):
+    """Ch. 5 makes no claim about the Θ adaptation, and it never matters here: on the nominal run the printed MRAC
+    and its baseline with the Θ adaptation off (`mrac_nonadaptive`, γ = 0) give the same acceleration PSD per band,
+    rattle space and work within 3 % (measured ≤ 1.2 % over 60 s; Θ moves < 1 %).  An adaptation that mattered on
+    this run would fail it; the page says every Ch. 5 MRAC number is the nominal design's."""
+    a, n = nominal["mrac"], nominal["mrac_nonadaptive"]
+    assert n["ctrl.theta.1"].iloc[-1] == n["ctrl.theta.1"].iloc[0]  # Θ frozen in the baseline
+    for lo, hi in ((0.25, 0.5), (0.5, 1.0), (1.0, 2.0), (2.0, 4.0)):
+        assert band(a, "body_acc", lo, hi) == pytest.approx(band(n, "body_acc", lo, hi), rel=0.03), (lo, hi)
+    assert float(np.sqrt(np.mean(a.travel[a.t > 6] ** 2))) == pytest.approx(
+        float(np.sqrt(np.mean(n.travel[n.t > 6] ** 2))), rel=0.03)
+    assert _work(a) == pytest.approx(_work(n), rel=0.03)
+
+
+def test_mrac_work_is_not_set_by_its_reference_damping(request, nominal):
+    """Why no SOC weights give the thesis's placement (the SOC doing more work than the MRAC): not the MRAC's heavily
+    damped skyhook reference.  With D_m = 750 instead of 6000 N·s/m the MRAC's ⟨|F·ż|⟩ stays within 5 % (measured
+    1016 vs 999 W) and above 2× the SOC's (276 W): its force lies above 5 Hz (measured RMS 524 N above, 119 N
+    below), working against the dirt road's white travel rate, while the SOC's lies below (45 / 158 N)."""
+    from scipy.signal import butter, sosfiltfilt
+
+    def edit(raw):
+        raw["sim"]["duration"] = 24.0
+        raw["variants"] = {"light": {"controller": {"type": "thesis_mrac_continuous", "params": {
+            "gamma": 1.0, "k_v": 0.1, "alpha": 1.0e-6, "static_level": False, "ref_damping": 750.0}}}}
+
+    light = run_variants(request.config.rootpath, "thesis_ch5_nominal", edit)["light"]
+    heavy, soc = nominal["mrac"], nominal["soc"]
+    assert _work(light) == pytest.approx(_work(heavy), rel=0.05)
+    assert min(_work(light), _work(heavy)) > 2 * _work(soc)
+
+    def split(ts):
+        s = ts[ts.t > 6]
+        F = s.actuator_force.to_numpy()
+        lo = sosfiltfilt(butter(4, 5.0, fs=1.0 / float(s.t.iloc[1] - s.t.iloc[0]), output="sos"), F)
+        return float(np.sqrt(np.mean(lo ** 2))), float(np.sqrt(np.mean((F - lo) ** 2)))
+    (ml, mh), (sl, sh) = split(heavy), split(soc)
+    assert mh > 3 * ml and sl > 2 * sh

@@ -20,6 +20,12 @@ may hold its control step, as the thesis's discrete laws do; the page states the
 the runs themselves), and each key
 number must change by less than 2 % (relative to ``max(|value|, floor)``; the floor keeps a number that is
 nearly zero from failing on noise).  The verdict of the check is part of each item's table.
+
+A key number that is a statistical estimate (e.g. the mean over realisations of a chaotic run) is given as
+``(value, floor, standard_error)``: its change on halving then carries the standard error of the difference,
+and it counts as converged only when the change plus one standard error is below 2 %; when the 2 % bound lies
+within one standard error of the change the check says "undecided" (a mean below the bound with a spread across
+it is not a pass).
 """
 from __future__ import annotations
 
@@ -50,7 +56,8 @@ class Claim:
 @dataclass
 class ItemOutput:
     claims: list[Claim]
-    key: dict[str, tuple[float, float]] = field(default_factory=dict)  # name -> (value, floor)
+    # name -> (value, floor) or (value, floor, standard error) for a statistical estimate (see the module doc)
+    key: dict[str, tuple] = field(default_factory=dict)
     figure: object | None = None  # a matplotlib Figure
     notes: list[str] = field(default_factory=list)
     tables: list[str] = field(default_factory=list)  # extra Markdown tables (e.g. a whole study)
@@ -164,6 +171,22 @@ def rel_change(a: float, b: float, floor: float) -> float:
     return abs(b - a) / max(abs(a), floor, 1e-300)
 
 
+def conv_status(change: float, se: float | None) -> str:
+    """"converged", "undecided" (the 2 % bound within one standard error of the change) or "not converged"."""
+    if se is None or not math.isfinite(se):
+        return "converged" if change < CONVERGENCE_TOL else "not converged"
+    if change + se < CONVERGENCE_TOL:
+        return "converged"
+    return "undecided" if change - se < CONVERGENCE_TOL else "not converged"
+
+
+def overall_status(statuses) -> str:
+    st = list(statuses)
+    if any(s == "not converged" for s in st):
+        return "NOT converged"
+    return "undecided" if any(s == "undecided" for s in st) else "converged"
+
+
 def md_table(header: list[str], rows: list[list[str]]) -> str:
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(str(c).replace("|", "\\|") for c in r) + " |" for r in rows]
@@ -181,15 +204,20 @@ def run_item(item: Item, converge: bool, progress=None) -> dict:
     pass flag."""
     ctx = Context(1.0, progress)
     out = item.run(ctx)
-    conv, half_ctx = None, None
+    conv, half_ctx, conv_se = None, None, {}
     if converge and item.converge and out.key:
         half_ctx = Context(0.5, progress)
         half = item.run(half_ctx)
         conv = []
-        for k, (v, floor) in out.key.items():
-            v2 = half.key.get(k, (float("nan"), floor))[0]
+        for k, kv in out.key.items():
+            v, floor = kv[0], kv[1]
+            hv = half.key.get(k, (float("nan"), floor))
+            v2 = hv[0]
             conv.append((k, v, v2, rel_change(v, v2, floor)))
-    return {"out": out, "conv": conv, "steps": sorted(ctx.steps),
+            if len(kv) > 2:  # a statistical estimate: the standard error of the change (relative)
+                se2 = hv[2] if len(hv) > 2 else kv[2]
+                conv_se[k] = math.hypot(kv[2], se2) / max(abs(v), floor, 1e-300)
+    return {"out": out, "conv": conv, "conv_se": conv_se, "steps": sorted(ctx.steps),
             "half_steps": None if half_ctx is None else sorted(half_ctx.steps)}
 
 
@@ -223,12 +251,18 @@ def item_markdown(source: Source, item: Item, r: dict) -> str:
     for t in out.tables:
         md += ["", t]
     if conv is not None:
-        ok = all(c[3] < CONVERGENCE_TOL for c in conv)
-        md += ["", f"Step halving: {'converged' if ok else 'NOT converged'} (every key number must change by "
+        ses = r.get("conv_se", {})
+        st = {k: conv_status(c, ses.get(k)) for k, a, b, c in conv}
+        ov = overall_status(st.values())
+        extra = ("; a mean over realisations carries ± one standard error of the change and is undecided when "
+                 f"the {CONVERGENCE_TOL:.0%} bound lies within it" if ses else "")
+        md += ["", f"Step halving: {ov} (every key number must change by "
                    f"less than {CONVERGENCE_TOL:.0%} {halved_text(r.get('steps', []), r.get('half_steps'))}; "
-                   f"run at {steps_text(r.get('steps', []))}).", ""]
+                   f"run at {steps_text(r.get('steps', []))}{extra}).", ""]
         md.append(md_table(["key number", "step", "half step", "change"],
-                            [[k, fmt(a, 4), fmt(b, 4), f"{c * 100:.2f} %"] for k, a, b, c in conv]))
+                            [[k, fmt(a, 4), fmt(b, 4), f"{c * 100:.2f} %" + (
+                                f" ± {ses[k] * 100:.2f} % ({st[k]})" if k in ses else "")]
+                             for k, a, b, c in conv]))
     elif item.converge is False:
         md += ["", "Step halving: not run for this item (see its notes)."]
     for n in out.notes:
@@ -248,13 +282,19 @@ def write_item(folder: Path, source: Source, item: Item, r: dict) -> None:
 
 
 def summary(r: dict) -> dict:
-    out, conv = r["out"], r["conv"]
+    out, conv, ses = r["out"], r["conv"], r.get("conv_se", {})
+
+    def entry(k, a, b, c):
+        e = {"step": a, "half_step": b, "change": c, "converged": conv_status(c, ses.get(k)) == "converged"}
+        if k in ses:
+            e["change_se"] = ses[k]
+            e["status"] = conv_status(c, ses[k])
+        return e
     return {
         "claims": [c.__dict__ for c in out.claims],
-        "key": {k: v for k, (v, _) in out.key.items()},
+        "key": {k: v[0] for k, v in out.key.items()},
         "steps": [list(s) for s in r.get("steps", [])],
-        "convergence": None if conv is None else
-        {k: {"step": a, "half_step": b, "change": c, "converged": c < CONVERGENCE_TOL} for k, a, b, c in conv},
+        "convergence": None if conv is None else {k: entry(k, a, b, c) for k, a, b, c in conv},
     }
 
 
@@ -274,8 +314,9 @@ def verdict_row(r: dict) -> tuple[str, str]:
     verdicts = ", ".join(c.verdict for c in r["out"].claims if c.verdict != "n.a.")
     conv = "not run"
     if r["conv"] is not None:
+        ses = r.get("conv_se", {})
         worst = max(r["conv"], key=lambda c: c[3])
-        conv = (("converged" if worst[3] < CONVERGENCE_TOL else "NOT converged")
+        conv = (overall_status(conv_status(c[3], ses.get(c[0])) for c in r["conv"])
                 + f" (worst {worst[0]}: {worst[3] * 100:.1f} %)")
     return verdicts, conv
 
@@ -293,7 +334,8 @@ def write_index(out: Path, srcs: dict, results: dict) -> None:
                 cs = "not run"
             else:
                 worst = max(conv.items(), key=lambda kv: kv[1]["change"])
-                cs = (("converged" if worst[1]["converged"] else "NOT converged")
+                cs = (overall_status(e.get("status", "converged" if e["converged"] else "not converged")
+                                     for e in conv.values())
                       + f" (worst {worst[0]}: {worst[1]['change'] * 100:.1f} %)")
             rows.append([f"[{name}]({name}/README.md)", f"[{item}]({name}/{item}.md)", verdicts, cs])
     (out / "README.md").write_text("# Reproductions\n\nGenerated by `suspension-sim reproduce`.\n\n"

@@ -98,7 +98,10 @@ def constant(ctx) -> ItemOutput:
             "the adaptive law approaches the known-parameter case; without adaptation the car does not follow"))
     fig = _figure(res, "Toscano & Dumas: constant k_M, b_M, estimates from 0 (cf. Figs. 6–8)",
                   lambda t: K0 + 0 * t, lambda t: B0 + 0 * t)
-    key = {"fk_mean": (fk, 1000.0), "fb_mean": (fb, 100.0), "nrmse_body_z": (tr["body_z"][0], 0.005)}
+    key = {"fk_mean": (fk, 1000.0), "fb_mean": (fb, 100.0), "nrmse_body_z": (tr["body_z"][0], 0.005),
+           "nrmse_body_v": (tr["body_vel"][0], 0.005), "nrmse_travel": (tr["travel"][0], 0.005)}
+    for v, x in base.items():  # the baselines' numbers are the row's numbers too
+        key[f"nrmse_body_z_{v}"] = (x, 0.005)
     return ItemOutput(claims, key=key, figure=fig)
 
 
@@ -175,7 +178,11 @@ def varying(ctx) -> ItemOutput:
              "recorded as partly reproduced, not as a contradiction."]
     fig = _figure(res, "Toscano & Dumas: k_M = 15000 + 5000 sin 3t, b_M = 1500 + 500 sin 4t, estimates from 0 (cf. Figs. 9–11)",
                   lambda t: K0 + DK * np.sin(WK * t), lambda t: B0 + DB * np.sin(WB * t))
-    key = {"fk_error": (ek, 500.0), "fb_error": (eb, 50.0), "nrmse_body_z": (tr["body_z"][0], 0.05)}
+    key = {"fk_error": (ek, 500.0), "fb_error": (eb, 50.0), "nrmse_body_z": (tr["body_z"][0], 0.005),
+           "nrmse_body_v": (tr["body_vel"][0], 0.005),
+           "v_err_rms": (rms(C['ctrl.v_err'][C.t > C.t.iloc[-1] - 4]), 1e-4)}
+    if "frozen_means" in res:
+        key["nrmse_body_z_frozen_means"] = (nrmse(res["frozen_means"].ts.body_z, res["reference"].ts.body_z), 0.005)
     return ItemOutput(claims, key=key, figure=fig, notes=notes, tables=[table])
 
 
