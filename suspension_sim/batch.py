@@ -554,64 +554,100 @@ class LocalEngine:
 
         ctx = mp.get_context("fork") if "fork" in mp.get_all_start_methods() else None
 
-        from .lifecycle import worker_initializer
+        from .lifecycle import DeferredSignals, worker_initializer
 
         def fresh():  # workers die with this process (SIGKILL included), see suspension_sim.lifecycle
             return ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx, initializer=worker_initializer,
                                        initargs=(os.getpid(),))
 
-        ex = fresh()
-        try:
-            pending: dict = {}
-            queue, suspects = deque(range(len(tasks))), []
-            while queue or pending:
-                while queue and len(pending) < 2 * self.workers:
-                    i = queue.popleft()
-                    try:
-                        pending[ex.submit(fn, tasks[i])] = i
-                    except BrokenProcessPool:  # the pool broke since the last wait: its running tasks are suspects
-                        queue.appendleft(i)
+        # Ctrl-C and SIGTERM are deferred to `stop.check()` (DeferredSignals: raised at an arbitrary bytecode,
+        # the exception can leave a future's lock held, and the pool's manager thread, which interpreter exit
+        # joins, then blocks on it forever); every wait polls so a signal is acted on within POLL_S
+        with DeferredSignals() as stop:
+            ex = fresh()
+
+            def result_of(fut):
+                while not wait([fut], timeout=self.POLL_S)[0]:
+                    stop.check()
+                stop.check()
+                return fut.result()
+
+            try:
+                pending: dict = {}
+                queue, suspects = deque(range(len(tasks))), []
+                while queue or pending:
+                    while queue and len(pending) < 2 * self.workers:
+                        i = queue.popleft()
+                        try:
+                            pending[ex.submit(fn, tasks[i])] = i
+                        except BrokenProcessPool:  # the pool broke since the last wait: its running tasks are suspects
+                            queue.appendleft(i)
+                            suspects.extend(pending.values())
+                            pending.clear()
+                            ex.shutdown(wait=False, cancel_futures=True)
+                            ex = fresh()
+                    done, _ = wait(pending, timeout=self.POLL_S, return_when=FIRST_COMPLETED)
+                    stop.check()
+                    broken = False
+                    for f in done:
+                        i = pending.pop(f)
+                        try:
+                            on_result(i, f.result())
+                        except BrokenProcessPool:  # a worker died (e.g. a segfault in native code)
+                            suspects.append(i)
+                            broken = True
+                        except Exception as e:  # noqa: BLE001
+                            on_fail(i, e)
+                    if broken:  # every task of the broken pool is a suspect; go on with a fresh pool
                         suspects.extend(pending.values())
                         pending.clear()
                         ex.shutdown(wait=False, cancel_futures=True)
                         ex = fresh()
-                done, _ = wait(pending, return_when=FIRST_COMPLETED)
-                broken = False
-                for f in done:
-                    i = pending.pop(f)
+                for i in suspects:  # one at a time: a task that breaks a pool alone is the culprit
                     try:
-                        on_result(i, f.result())
-                    except BrokenProcessPool:  # a worker died (e.g. a segfault in native code)
-                        suspects.append(i)
-                        broken = True
+                        on_result(i, result_of(ex.submit(fn, tasks[i])))
+                    except BrokenProcessPool as e:
+                        on_fail(i, e)
+                        ex.shutdown(wait=False, cancel_futures=True)
+                        ex = fresh()
                     except Exception as e:  # noqa: BLE001
                         on_fail(i, e)
-                if broken:  # every task of the broken pool is a suspect; go on with a fresh pool
-                    suspects.extend(pending.values())
-                    pending.clear()
-                    ex.shutdown(wait=False, cancel_futures=True)
-                    ex = fresh()
-            for i in suspects:  # one at a time: a task that breaks a pool alone is the culprit
-                try:
-                    on_result(i, ex.submit(fn, tasks[i]).result())
-                except BrokenProcessPool as e:
-                    on_fail(i, e)
-                    ex.shutdown(wait=False, cancel_futures=True)
-                    ex = fresh()
-                except Exception as e:  # noqa: BLE001
-                    on_fail(i, e)
-        except BaseException:  # Ctrl-C, SIGTERM: drop queued tasks and stop the running ones (results so far are kept)
-            for p in list(getattr(ex, "_processes", {}).values()):
-                try:
-                    p.terminate()
-                except Exception:  # noqa: BLE001 - already gone
-                    pass
-            ex.shutdown(wait=False, cancel_futures=True)
-            raise
-        ex.shutdown(wait=True)
+                ex.shutdown(wait=True)
+                stop.check()
+            except BaseException:  # Ctrl-C, SIGTERM: drop queued tasks and stop the running ones (results so far are kept)
+                _stop_pool(ex)
+                raise
+
+    #: seconds between checks for a deferred Ctrl-C / SIGTERM while waiting for workers
+    POLL_S = 0.2
 
     def close(self):
         pass
+
+
+def _stop_pool(ex, grace: float = 2.0) -> None:
+    """Stop a process pool now: its workers are terminated (killed if still alive after ``grace`` s), queued
+    tasks dropped, and its manager thread, which sees the workers die, is given a moment to finish (interpreter
+    exit joins it)."""
+    procs = list((getattr(ex, "_processes", None) or {}).values())
+    for p in procs:
+        try:
+            p.terminate()
+        except Exception:  # noqa: BLE001 - already gone
+            pass
+    t_end = time.monotonic() + grace
+    for p in procs:
+        try:
+            p.join(max(0.0, t_end - time.monotonic()))
+            if p.is_alive():  # e.g. forked but not yet past its initializer (the parent's SIGTERM handler)
+                p.kill()
+                p.join(1.0)
+        except Exception:  # noqa: BLE001
+            pass
+    manager = getattr(ex, "_executor_manager_thread", None)
+    ex.shutdown(wait=False, cancel_futures=True)
+    if manager is not None:
+        manager.join(grace)
 
 
 class DaskEngine:
@@ -804,6 +840,16 @@ class BatchReport:
     sim_seconds: float = 0.0
 
 
+class BatchInterrupted(KeyboardInterrupt):
+    """Ctrl-C stopped a batch; the runs finished before it are in ``out/summary.parquet`` (running the same
+    batch again computes only the rest)."""
+
+    def __init__(self, out: Path, n_done: int, n_run: int, n_total: int):
+        self.out, self.n_done, self.n_run, self.n_total = Path(out), n_done, n_run, n_total
+        super().__init__(f"interrupted: {n_done} of the {n_run} runs to compute finished ({n_total} in the sweep); "
+                         f"results so far in {self.out / 'summary.parquet'}; run the same batch again to resume")
+
+
 def run_batch(sweep_path: str | Path, out: str | Path | None = None, workers: int | None = None,
               scheduler: str | None = None, dask_local: int | None = None, resume: bool = True,
               ensemble_size: int | None = None, progress: Callable[[int, int], None] | None = None,
@@ -862,16 +908,23 @@ def run_batch(sweep_path: str | Path, out: str | Path | None = None, workers: in
                 for rid, vals, h, seed in tasks[i].runs]
         on_result(i, rows)
 
+    stopped: BaseException | None = None
     try:
         if progress:
             progress(0, n_run)
         eng.map(run_task, tasks, on_result, on_fail)
+    except (KeyboardInterrupt, SystemExit) as err:  # Ctrl-C, SIGTERM: the finished runs still make a summary
+        stopped = err
     finally:
         store.flush()
         if engine is None:
             eng.close()
     wall = time.perf_counter() - t0
     df = store.consolidate(pl)
+    if isinstance(stopped, KeyboardInterrupt):
+        raise BatchInterrupted(out, counter["done"], n_run, len(pl.runs)) from None
+    if stopped is not None:
+        raise stopped
     counts = df["status"].value_counts().to_dict() if df is not None else {}
     return BatchReport(out=out, summary=df, n_total=len(pl.runs), n_run=n_run, n_skipped=len(pl.runs) - n_run,
                        wall=wall, engine=eng.label, counts=counts, sim_seconds=pl.duration)

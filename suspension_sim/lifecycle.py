@@ -7,6 +7,8 @@
 - :func:`install_signal_handlers`: SIGTERM (and SIGHUP) in the main process raise ``SystemExit`` like Ctrl-C
   raises ``KeyboardInterrupt``, so ``finally`` blocks and ``atexit`` handlers run (pools shut down, the
   viewer server is terminated, partial batch results are flushed).
+- :class:`DeferredSignals`: while a process pool is driven, those exceptions are raised only where the caller
+  checks for them, never at an arbitrary bytecode inside ``concurrent.futures`` (see its docstring).
 """
 from __future__ import annotations
 
@@ -79,3 +81,65 @@ def install_signal_handlers() -> None:
                 signal.signal(sig, _raise_exit)
         except (ValueError, OSError):  # pragma: no cover
             pass
+
+
+class DeferredSignals:
+    """While active (a ``with`` block in the main thread), SIGINT, SIGTERM and SIGHUP whose handler would raise
+    (Python's ``KeyboardInterrupt``, :func:`install_signal_handlers`' ``SystemExit``) only record the signal;
+    :meth:`check` then calls the previous handler (so the same exception is raised) at a point the caller chose.
+
+    Why: an exception raised by a signal handler can surface at any bytecode of the main thread, including the
+    instant after ``concurrent.futures`` acquired a future's condition lock (``wait()``'s ``_AcquireFutures``,
+    ``Future.result()``, ``threading.Condition.__enter__``) and before the ``with`` block that releases it is set
+    up.  The lock is then held forever; the pool's manager thread blocks on it when it cancels or fails that
+    future, and interpreter exit joins the manager thread: the process hangs after Ctrl-C with its workers
+    already dead.  Deferring the exception to :meth:`check`, which is called outside the pool's locks, removes
+    that window.  Signals whose handler is ``SIG_DFL``/``SIG_IGN`` are left alone, and outside the main thread
+    this does nothing."""
+
+    NAMES = ("SIGINT", "SIGTERM", "SIGHUP")
+
+    def __init__(self):
+        self.signum: int | None = None
+        self._prev: dict[int, object] = {}
+
+    def _record(self, signum, frame):
+        if self.signum is None:
+            self.signum = signum
+
+    def __enter__(self):
+        if threading.current_thread() is not threading.main_thread():
+            return self
+        for name in self.NAMES:
+            sig = getattr(signal, name, None)
+            if sig is None:
+                continue
+            try:
+                prev = signal.getsignal(sig)
+                if callable(prev):
+                    signal.signal(sig, self._record)
+                    self._prev[sig] = prev
+            except (ValueError, OSError):  # pragma: no cover
+                pass
+        return self
+
+    def __exit__(self, *exc):
+        for sig, prev in self._prev.items():
+            try:
+                signal.signal(sig, prev)
+            except (ValueError, OSError):  # pragma: no cover
+                pass
+        self._prev.clear()
+        return False
+
+    @property
+    def pending(self) -> bool:
+        return self.signum is not None
+
+    def check(self) -> None:
+        """Raise what the recorded signal's own handler raises (once); nothing if no signal came."""
+        signum, self.signum = self.signum, None
+        if signum is not None:
+            prev = self._prev.get(signum)
+            if callable(prev):
+                prev(signum, None)

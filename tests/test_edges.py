@@ -320,6 +320,98 @@ def test_baseline_pool_workers_outlive_a_killed_parent(tmp_path):
     assert left, "the baseline pool's workers died too: the test above would prove nothing"
 
 
+INTERRUPT_SCRIPT = textwrap.dedent("""
+    # SIGINT delivered at the worst moment: just after the main thread took a future's condition lock inside
+    # concurrent.futures.wait() (signal.raise_signal: Python raises KeyboardInterrupt at the next bytecode)
+    import os, signal, sys, time
+    from concurrent.futures import _base
+    from suspension_sim import lifecycle
+    from suspension_sim.batch import LocalEngine
+
+    def task(i):
+        print("child", os.getpid(), flush=True)
+        time.sleep(600)
+        return []
+
+    def enter(self):
+        for future in self.futures:
+            future._condition.acquire()
+            if getattr(sys, "_armed", False):
+                sys._armed = False
+                signal.raise_signal(signal.SIGINT)
+
+    _base._AcquireFutures.__enter__ = enter
+    if sys.argv[1] == "baseline":  # the engine without deferred signals (as it was): KeyboardInterrupt lands there
+        lifecycle.DeferredSignals.__enter__ = lambda self: self
+    lifecycle.install_signal_handlers()
+    signal.signal(signal.SIGUSR1, lambda *a: setattr(sys, "_armed", True))
+    print("parent", flush=True)
+    LocalEngine(2).map(task, [0, 1], lambda i, r: None, lambda i, e: None)
+""")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux")
+@pytest.mark.parametrize("mode", ["engine", "baseline"])
+def test_ctrl_c_inside_a_pool_lock_still_ends_the_batch(tmp_path, mode):
+    """The flaky hang of test_batch_workers_die_with_their_parent[SIGINT] made deterministic: a KeyboardInterrupt
+    raised while the main thread holds a future's condition lock leaves it held; the pool's manager thread
+    blocks on it when it cancels the future, and interpreter exit joins that thread forever.  The engine defers
+    the signal to a point outside the pool's locks (lifecycle.DeferredSignals) and exits; without that (the
+    baseline) the parent hangs, its workers already dead."""
+    s = tmp_path / "intr.py"
+    s.write_text(INTERRUPT_SCRIPT)
+    proc = subprocess.Popen([sys.executable, str(s), mode], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                            text=True, cwd=REPO, start_new_session=True, preexec_fn=_sigint_default)
+    try:
+        assert proc.stdout.readline().startswith("parent")
+        assert proc.stdout.readline().startswith("child")
+        kids = _children(proc.pid)
+        os.kill(proc.pid, signal.SIGUSR1)  # armed: the next lock taken in wait() (every 0.2 s at most) raises SIGINT
+        if mode == "engine":
+            assert proc.wait(30) == -signal.SIGINT  # KeyboardInterrupt uncaught: Python ends by SIGINT
+            assert _wait_dead(kids) == []
+        else:
+            with pytest.raises(subprocess.TimeoutExpired):
+                proc.wait(4)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+
+
+def test_batch_ctrl_c_prints_one_line_and_keeps_a_readable_summary(tmp_path):
+    """Ctrl-C in the middle of a batch on two workers: exit 130 with one line (no traceback), no worker left,
+    and summary.parquet holds the runs finished so far (those a resumed batch skips)."""
+    _write(tmp_path, {**SWEEP_SCENARIO, "sim": {"duration": 100.0}}, "base.yaml")
+    sw = tmp_path / "sweep.yaml"
+    n = 24
+    sw.write_text(yaml.safe_dump({"base": "base.yaml", "grid": {"vehicle.params.damping": [800 + 50 * i for i in range(n)]},
+                                  "ensemble_size": 1}))
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "suspension_sim.cli", "batch", str(sw), "--out", str(out), "-q",
+                             "--workers", "2"], cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True, preexec_fn=_sigint_default)
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < 180:
+        if (out / "parts").exists() and len(list((out / "parts").glob("part-*.parquet"))) >= 2:
+            break
+        time.sleep(0.05)
+    kids = _children(proc.pid)
+    os.kill(proc.pid, signal.SIGINT)
+    try:
+        err = proc.communicate(timeout=30)[1]
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 130, err
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("error: interrupted: ") and "summary.parquet" in lines[0], err
+    assert _wait_dead(kids) == []
+    df = pd.read_parquet(out / "summary.parquet")  # what a resumed batch skips (test above)
+    assert 2 <= len(df) < n and (df["status"] == "ok").all()
+    assert not list((out / "parts").glob("part-*.parquet"))  # consolidated into the summary
+
+
 VIEWER_SCRIPT = textwrap.dedent("""
     import time
     from suspension_sim.lifecycle import install_signal_handlers

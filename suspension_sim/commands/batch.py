@@ -31,7 +31,7 @@ def register(app: typer.Typer) -> None:
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
         from rich.table import Table
 
-        from ..batch import run_batch
+        from ..batch import BatchInterrupted, run_batch
         from ..cli import console, err_console, fail, guarded
 
         if scheduler and dask_local:
@@ -58,8 +58,12 @@ def register(app: typer.Typer) -> None:
                 def progress(done, total):
                     prog.update(task, completed=done, total=total)
 
-                rep = run_batch(sweep, out=out, workers=workers, scheduler=scheduler, dask_local=dask_local,
-                                resume=resume, ensemble_size=ensemble_size, progress=progress)
+                try:
+                    rep = run_batch(sweep, out=out, workers=workers, scheduler=scheduler, dask_local=dask_local,
+                                    resume=resume, ensemble_size=ensemble_size, progress=progress)
+                except BatchInterrupted as err:  # Ctrl-C: one line, the finished runs kept, exit 130 (128 + SIGINT)
+                    prog.stop()
+                    fail(str(err), 130)
             df = rep.summary
             counts = ", ".join(f"{k} {v}" for k, v in sorted(rep.counts.items()))
             console.print(f"[bold]{rep.n_total}[/] runs ({rep.n_run} computed, {rep.n_skipped} already done) on "
