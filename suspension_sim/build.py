@@ -20,6 +20,7 @@ import dataclasses
 from typing import Sequence
 
 import mujoco
+import numba
 import numpy as np
 
 from . import buffers
@@ -32,7 +33,7 @@ from .errors import ScenarioError
 from .maneuvers import build_maneuver
 from .plant import Plant
 from .registry import ACTUATORS, CONTROLLERS, EFFECTS, ROADS, SENSORS
-from .roads.base import RoadContext
+from .roads.base import ANCHOR, RoadContext, StepGrid
 from .sensors.base import PlantState, SensorChannel, SensorContext
 
 STRUCTURE_KEYS = ("vehicle.model", "effects", "actuator.type", "controller.type", "sensors", "sim")
@@ -405,14 +406,8 @@ class System:
         t = (np.arange(k0 - 1, k1 + 1)) * self.dt  # one extra sample each side (RK4's second differences)
         z = buffers.empty((L + 2, n, nc))  # a buffer of an earlier chunk that is no longer read (no fresh pages)
         zd = buffers.empty((L, n, nc))
-        groups: dict = {}  # (road type, speed law, axle offset, track) -> (speed profile, {road: wheels})
-        for i, (road, sp) in enumerate(zip(self.roads, self.speeds)):
-            key = sp.key
-            for c in range(nc):
-                g = groups.setdefault((type(road), key, float(self.corner_back[i, c]), self.geom.tracks[c]), (sp, {}))
-                g[1].setdefault(id(road), (road, []))[1].append((i, c))
         paths: dict = {}  # distance and speed of each distinct speed law
-        for (rcls, key, back, track), (sp, members) in groups.items():
+        for (rcls, key, back, track), (sp, roads, rows, cars, corners) in self._road_groups().items():
             if key not in paths:
                 paths[key] = (sp.distance(t), sp.speed(t[1:-1]))
             x, v = paths[key]
@@ -422,27 +417,47 @@ class System:
             else:
                 tc = sp.time_at(xc, t)
                 tc_rate = sp.time_at_rate(xc[1:-1], t[1:-1])
-            roads = [r for r, _ in members.values()]
-            h, zt, zx = rcls.height_slopes_many(roads, tc, xc, track)
+            grid = None
+            if sp.const is not None:  # a uniform step grid: corner time and distance at the anchor steps too
+                g0 = k0 - 1
+                ta = np.arange((g0 // ANCHOR) * ANCHOR, k1 + 1, ANCHOR) * self.dt
+                xa = sp.distance(ta) - back
+                grid = StepGrid(g0=g0, dt=self.dt, dx=sp.const * self.dt, x_anchor=xa,
+                                t_anchor=ta if back == 0 else sp.time_at(xa, ta))
+            h, zt, zx = rcls.height_slopes_many(roads, tc, xc, track, grid=grid)
             # the exact time derivative of the height each wheel sees (Road.rate: the road's own derivative
-            # law), not a difference over ±dt (whose O(dt²) error on a spline road moved results with the step)
-            rate = zt[:, 1:-1] * tc_rate + zx[:, 1:-1] * v
-            wheels = [w for _, ws in members.values() for w in ws]
-            cars = np.fromiter((i for i, _ in wheels), np.intp, len(wheels))
-            corners = np.fromiter((c for _, c in wheels), np.intp, len(wheels))
-            if len(wheels) != len(roads):  # a road shared by several wheels: its row for each
-                rows = np.repeat(np.arange(len(roads)), [len(ws) for _, ws in members.values()])
-                h, rate = h[rows], rate[rows]
-            if nc == 1 and len(wheels) == n and np.array_equal(cars, np.arange(n)):
-                z[:, :, 0] = h.T
-                zd[:, :, 0] = rate.T
-            else:
-                z[:, cars, corners] = h.T
-                zd[:, cars, corners] = rate.T
+            # law), zt·(corner time rate) + zx·speed, not a difference over ±dt (whose O(dt²) error on a spline
+            # road moved results with the step); written step-major with the heights, wheel by wheel (a road
+            # shared by several wheels: its row for each), in one compiled pass
+            tcr = np.broadcast_to(np.asarray(tc_rate, dtype=float), (L,))
+            _place_road(*(np.asarray(a, dtype=float) for a in (h, zt, zx)), tcr, np.asarray(v, dtype=float),
+                        rows, cars, corners, z, zd)
         zc, zdc = z[1:-1].transpose(1, 0, 2), zd.transpose(1, 0, 2)
         if self.rk4:  # RK4 also prescribes the plates' acceleration within a step
             return zc, zdc, ((z[2:] - 2 * z[1:-1] + z[:-2]) / self.dt ** 2).transpose(1, 0, 2)
         return zc, zdc
+
+    def _road_groups(self) -> dict:
+        """The wheels grouped by road type, speed law, axle offset and track: key -> (speed profile, the
+        group's distinct road objects, each wheel's row among them, its car, its corner).  Fixed once built."""
+        cache = self.__dict__.get("_road_groups_cache")
+        if cache is not None and cache[0] == (len(self.roads), tuple(map(id, self.roads)), tuple(map(id, self.speeds))):
+            return cache[1]
+        nc = self.plant.nc
+        groups: dict = {}  # (road type, speed law, axle offset, track) -> (speed profile, {road: wheels})
+        for i, (road, sp) in enumerate(zip(self.roads, self.speeds)):
+            for c in range(nc):
+                g = groups.setdefault((type(road), sp.key, float(self.corner_back[i, c]), self.geom.tracks[c]),
+                                      (sp, {}))
+                g[1].setdefault(id(road), (road, []))[1].append((i, c))
+        out = {}
+        for key, (sp, members) in groups.items():
+            roads = [r for r, _ in members.values()]
+            wheels = [(r, i, c) for r, (_, ws) in enumerate(members.values()) for i, c in ws]
+            out[key] = (sp, roads, *(np.array([w[j] for w in wheels], dtype=np.int64) for j in range(3)))
+        self.__dict__["_road_groups_cache"] = ((len(self.roads), tuple(map(id, self.roads)),
+                                                tuple(map(id, self.speeds))), out)
+        return out
 
     def apply_variations(self, t: float):
         """Every time-varying parameter at time ``t`` (both loops call this at each control instant)."""
@@ -657,3 +672,20 @@ def variation_value(v, t: float, nominal):
     if v.mode == "scale":
         return nominal * val
     return np.full_like(nominal, val)
+
+
+@numba.njit(cache=True, nogil=True)
+def _place_road(h, zt, zx, tc_rate, v, rows, cars, corners, z, zd):  # pragma: no cover - compiled
+    """z[j, car, corner] = h[row, j] and zd[j, car, corner] = zt[row, j+1]·tc_rate[j] + zx[row, j+1]·v[j] for
+    every wheel (row, car, corner), in blocks of 64 steps (the step-major writes of a block stay in cache)."""
+    n_w = rows.shape[0]
+    L2 = z.shape[0]
+    B = 64
+    for j0 in range(0, L2, B):
+        j1 = min(j0 + B, L2)
+        for w in range(n_w):
+            r, i, c = rows[w], cars[w], corners[w]
+            for j in range(j0, j1):
+                z[j, i, c] = h[r, j]
+            for j in range(j0, min(j1, L2 - 2)):
+                zd[j, i, c] = zt[r, j + 1] * tc_rate[j] + zx[r, j + 1] * v[j]

@@ -71,14 +71,37 @@ class Road:
         return self.height(t, x, track), zt, zx
 
     @classmethod
-    def height_slopes_many(cls, roads: list, t: np.ndarray, x: np.ndarray, track: int = 0):
+    def height_slopes_many(cls, roads: list, t: np.ndarray, x: np.ndarray, track: int = 0,
+                           grid: "StepGrid | None" = None):
         """:meth:`height_slopes` of several roads of this class on the same samples ``t``, ``x`` (1-D): three
         arrays ``(len(roads), samples)``, row k the numbers of ``roads[k]`` alone.  This default evaluates the
         roads one by one; a closed-form road evaluates them together, its parameters as columns (an
-        ensemble's cars differ in amplitude or frequency, not in the law)."""
+        ensemble's cars differ in amplitude or frequency, not in the law).  ``grid``: when the samples are
+        consecutive physics steps at a constant speed, where they lie on the run's step grid (a road may use
+        it for a recurrence along the steps; this default ignores it)."""
         shape = (len(roads), np.broadcast(np.asarray(t), np.asarray(x)).size)
         out = tuple(np.empty(shape) for _ in range(3))
         for k, road in enumerate(roads):
             for a, v in zip(out, road.height_slopes(t, x, track)):
                 a[k] = v
         return out
+
+
+#: physics steps between the exact anchors of a recurrence along a :class:`StepGrid` (a sine's rotation
+#: rounds by ~2 ulp of the amplitude per step: ~1e-14 relative at most)
+ANCHOR = 64
+
+
+@dataclass(frozen=True)
+class StepGrid:
+    """The samples of :meth:`Road.height_slopes_many` as physics steps g0, g0 + 1, ... of a uniform grid (a
+    constant speed): corner time advances by ``dt`` and distance by ``dx`` per step; ``t_anchor`` and
+    ``x_anchor`` are the corner time and distance (the same functions of the step as the samples) at the
+    steps M·i from M·floor(g0/M) up to the last sample (M = :data:`ANCHOR`)."""
+
+    g0: int
+    dt: float
+    dx: float
+    t_anchor: np.ndarray
+    x_anchor: np.ndarray
+    M: int = ANCHOR
