@@ -30,8 +30,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 import pandas as pd
+
+from ..compiled.numpy_order import pairwise_sum
 
 
 @dataclass
@@ -195,10 +198,21 @@ class Reductions:
     def count(self, key, mask: np.ndarray) -> None:
         self.sum_value(key, np.count_nonzero(mask, axis=1).astype(float))
 
+    def max_value(self, key, m: np.ndarray) -> None:
+        """Fold the chunk's maxima ``m`` (n_cars,) into ``key``."""
+        self.v[key] = m if key not in self.v else np.maximum(self.v[key], m)
+
     def rms_peak(self, key, x: np.ndarray) -> None:
-        """Sum of squares and max |x| of ``x`` under ``key`` (read with :meth:`rms` and :meth:`peak`)."""
-        self.sum(f"{key}.ss", x * x)
-        self.max(f"{key}.pk", np.abs(x))
+        """Sum of squares and max |x| of ``x`` under ``key`` (read with :meth:`rms` and :meth:`peak`): the
+        numbers of ``np.sum(x * x, axis=1)`` and ``np.max(np.abs(x), axis=1)``, in one compiled pass."""
+        x = rows_of(x)
+        if x.shape[1] == 0:
+            self.sum_value(f"{key}.ss", np.zeros(x.shape[0]))
+            return
+        ss, pk = np.empty(x.shape[0]), np.empty(x.shape[0])
+        sumsq_maxabs(x, ss, pk)
+        self.sum_value(f"{key}.ss", ss)
+        self.max_value(f"{key}.pk", pk)
 
     def trapezoid(self, key, y: np.ndarray, t: np.ndarray) -> None:
         """∫ y dt over the chunks (scipy's trapezoid rule, the previous chunk's last sample joined on)."""
@@ -211,6 +225,13 @@ class Reductions:
 
             self.sum_value(key, integrate.trapezoid(y, t, axis=-1))
         self.last[key] = (y[:, -1:], t[-1:])
+
+    def trapezoid_value(self, key, s: np.ndarray | None, last_y: np.ndarray, last_t: np.ndarray) -> None:
+        """Fold a chunk's trapezoid sum ``s`` (None: no interval yet) into ``key``, with the chunk's last sample
+        (``(n_cars, 1)``) and time (``(1,)``) for the next chunk (what :meth:`trapezoid` keeps)."""
+        if s is not None:
+            self.sum_value(key, s)
+        self.last[key] = (last_y, last_t)
 
     def get(self, key, default: float = np.nan) -> np.ndarray:
         return self.v.get(key, np.full(self.n_cars, default))
@@ -321,3 +342,74 @@ class CornerRmsPeak(Accumulator):
             out[f"{self.key}_peak{s}"] = self.r.peak(s)
             out.update(self.more(s, r))
         return out
+
+
+# ----------------------------------------------------------------------------------------------------------
+# compiled reductions: numpy's numbers (the same operations; sums in numpy's pairwise order, numpy_order),
+# one pass over each car's row instead of a numpy pass and a temporary per operation
+# ----------------------------------------------------------------------------------------------------------
+def rows_of(x) -> np.ndarray:
+    """``x`` as a C-contiguous float64 2-D array (a view when it is one)."""
+    return np.ascontiguousarray(x, dtype=np.float64)
+
+
+@numba.njit(cache=True, inline="always")
+def fold_max(m, a):  # pragma: no cover - compiled
+    """np.maximum.reduce's step: NaN once seen stays, else the larger."""
+    if m == m and not a <= m:
+        return a
+    return m
+
+
+@numba.njit(cache=True, inline="always")
+def max_nonneg(a, n):  # pragma: no cover - compiled
+    """The largest of a[0:n] (n >= 1, values >= 0 or NaN), NaN ignored: four independent running maxima
+    (np.max's number when a holds no NaN; the callers know from their sum whether it does)."""
+    m0 = a[0]
+    m1 = m0
+    m2 = m0
+    m3 = m0
+    j = 0
+    while j + 4 <= n:
+        m0 = a[j] if a[j] > m0 else m0
+        m1 = a[j + 1] if a[j + 1] > m1 else m1
+        m2 = a[j + 2] if a[j + 2] > m2 else m2
+        m3 = a[j + 3] if a[j + 3] > m3 else m3
+        j += 4
+    while j < n:
+        m0 = a[j] if a[j] > m0 else m0
+        j += 1
+    m0 = m1 if m1 > m0 else m0
+    m2 = m3 if m3 > m2 else m2
+    return m2 if m2 > m0 else m0
+
+
+@numba.njit(cache=True, nogil=True)
+def sumsq_maxabs(x, ss, pk):  # pragma: no cover - compiled
+    """ss[r] = np.sum(x[r] * x[r]) (numpy's pairwise order) and pk[r] = np.max(np.abs(x[r])) (NaN when x[r]
+    holds a NaN, which is when the sum of squares is NaN); rows of at least one sample."""
+    n = x.shape[1]
+    tmp = np.empty(n)
+    ab = np.empty(n)
+    for r in range(x.shape[0]):
+        for j in range(n):
+            v = x[r, j]
+            tmp[j] = v * v
+            ab[j] = abs(v)
+        ss[r] = pairwise_sum(tmp, 0, n)
+        pk[r] = max_nonneg(ab, n) if ss[r] == ss[r] else np.nan
+
+
+@numba.njit(cache=True, inline="always")
+def trapezoid_terms(y, t, prev_y, prev_t, has_prev, tmp):  # pragma: no cover - compiled
+    """tmp[j] = ((t[j+1] − t[j])·(y[j+1] + y[j])) / 2.0 over [prev_y, y] at [prev_t, t] (scipy.integrate.trapezoid's
+    terms, the previous chunk's last sample joined on when ``has_prev``); returns the number of terms."""
+    n = y.shape[0]
+    q = 0
+    if has_prev and n > 0:
+        tmp[0] = ((t[0] - prev_t) * (y[0] + prev_y)) / 2.0
+        q = 1
+    for j in range(n - 1):
+        tmp[q] = ((t[j + 1] - t[j]) * (y[j + 1] + y[j])) / 2.0
+        q += 1
+    return q

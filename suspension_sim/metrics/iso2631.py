@@ -68,7 +68,8 @@ import numpy as np
 from scipy import integrate, signal
 
 from ..registry import METRICS
-from .base import Accumulator, metric
+from ..compiled.numpy_order import pairwise_sum
+from .base import Accumulator, fold_max, max_nonneg, metric, rows_of
 
 #: Parameters (Hz, and quality factors) of ISO 2631-1:1997 Annex A for the weightings provided here.
 WEIGHTINGS: dict[str, dict[str, float]] = {
@@ -366,28 +367,35 @@ class WeightedStats:
             self.pending = np.ascontiguousarray(aw)  # (not a strided view holding the upsampled signal)
 
     def _reduce(self, aw: np.ndarray) -> None:
-        sq = aw * aw
-        self.ss = self.ss + np.sum(sq, axis=1)
-        m = np.max(np.abs(aw), axis=1)
-        self.pk = m if self.n_aw == 0 else np.maximum(self.pk, m)
-        a4 = sq * sq  # a_w⁴ as (a_w²)² (pow(a_w, 4) costs 60 times more; the two differ by an ulp or two)
-        if self.prev4 is not None:
-            a4 = np.concatenate([self.prev4, a4], axis=1)
-        if a4.shape[1] > 1:
-            self.vdv4 = self.vdv4 + integrate.trapezoid(a4, dx=1.0 / self.fs, axis=-1)
-        self.prev4 = a4[:, -1:]
-        # running sum carried sequentially (np.cumsum from the last value: the one-pass cumsum's numbers);
-        # windows ending at global index k (in c) of this chunk: c[k] - c[k - win]
-        full = np.concatenate([self.c_tail, np.cumsum(np.concatenate([self.c_tail[:, -1:], sq], axis=1),
-                                                      axis=1)[:, 1:]], axis=1)
+        # one compiled pass per car (_reduce_rows), the numbers of the numpy form:
+        #   sq = aw²; ss += Σ sq; pk = max(pk, max |aw|); a4 = sq² (pow(a_w, 4) costs 60 times more; the two
+        #   differ by an ulp or two) with the last chunk's a4 joined on, vdv4 += trapezoid(a4, dx = 1/fs);
+        #   the running sum of sq carried sequentially from the last value (np.cumsum's numbers), and the
+        #   largest window mean (c[k] − c[k − win]) / win over the windows ending in this chunk
+        aw = rows_of(aw)
+        n_cars, n = aw.shape
+        T = self.c_tail.shape[1]
         k0 = self.n_aw + 1  # global index of the chunk's first running-sum value
-        g0 = k0 - self.c_tail.shape[1]  # global index of full[:, 0]
-        a, b = max(self.win, k0) - g0, k0 + aw.shape[1] - g0
-        if self.win >= 1 and b > a:
-            ms = (full[:, a:b] - full[:, a - self.win:b - self.win]) / self.win
-            self.best = np.maximum(self.best, np.max(ms, axis=1))
-        self.n_aw += aw.shape[1]
-        self.c_tail = full[:, -(self.win + 1):] if self.win >= 1 else full[:, -1:]
+        g0 = k0 - T  # global index of the row's first value (the tail's)
+        a, b = max(self.win, k0) - g0, k0 + n - g0
+        windows = self.win >= 1 and b > a
+        keep = min(T + n, self.win + 1 if self.win >= 1 else 1)
+        out = np.empty((5, n_cars))
+        tail = np.empty((n_cars, keep))
+        has_prev = self.prev4 is not None
+        prev4 = self.prev4[:, 0] if has_prev else np.zeros(n_cars)
+        _reduce_rows(aw, np.ascontiguousarray(self.c_tail), prev4, has_prev, 1.0 / self.fs, self.win if windows else 0,
+                     a, b, out, tail)
+        self.ss = self.ss + out[0]
+        self.pk = out[1] if self.n_aw == 0 else np.maximum(self.pk, out[1])
+        if n + has_prev > 1:
+            self.vdv4 = self.vdv4 + out[2]
+        if n:
+            self.prev4 = out[3][:, None]
+        if windows:
+            self.best = np.maximum(self.best, out[4])
+        self.n_aw += n
+        self.c_tail = tail
 
     def result(self) -> dict:
         """``rms``, ``peak``, ``vdv`` (m/s^1.75; 0 below two samples) and ``mtvv`` (the RMS when the record is
@@ -449,3 +457,53 @@ class Iso2631(Accumulator):
             crest = np.where(awr > 0, st["peak"] / np.where(awr > 0, awr, 1.0), np.nan)
         return {"body_acc_wk_rms": awr, "body_acc_vdv": st["vdv"], "body_acc_wk_mtvv": st["mtvv"],
                 "body_acc_wk_crest": crest}
+
+
+@numba.njit(cache=True, nogil=True)
+def _reduce_rows(aw, c_tail, prev4, has_prev, dx, win, a, b, out, tail):  # pragma: no cover - compiled
+    """WeightedStats._reduce of each car's row: out[0] = Σ aw², out[1] = max |aw|, out[2] = the trapezoid sum
+    of aw⁴ = (aw²)² with the previous chunk's last aw⁴ (prev4) joined on, at spacing dx, out[3] = the last aw⁴,
+    out[4] = the largest (c[k] − c[k − win]) / win for k in [a, b) of the running sum c = [c_tail, c_tail[-1] + Σ aw²
+    ...] (win = 0: none); ``tail`` gets c's last values.  numpy's and scipy's numbers (pairwise sums, the
+    same operations in the same order)."""
+    n = aw.shape[1]
+    T = c_tail.shape[1]
+    sq = np.empty(n)
+    a4 = np.empty(n)
+    ab = np.empty(n)
+    tmp = np.empty(n + 1)
+    c = np.empty(T + n)
+    keep = tail.shape[1]
+    for r in range(aw.shape[0]):
+        for j in range(n):
+            v = aw[r, j]
+            q = v * v
+            sq[j] = q
+            a4[j] = q * q
+            ab[j] = abs(v)
+        out[0, r] = pairwise_sum(sq, 0, n)
+        out[1, r] = max_nonneg(ab, n) if out[0, r] == out[0, r] else np.nan  # Σ aw² is NaN iff an aw is
+        # scipy.integrate.trapezoid(a4, dx=dx): terms (dx·(y[j+1] + y[j])) / 2.0
+        qn = 0
+        if has_prev and n > 0:
+            tmp[0] = (dx * (a4[0] + prev4[r])) / 2.0
+            qn = 1
+        for j in range(n - 1):
+            tmp[qn] = (dx * (a4[j + 1] + a4[j])) / 2.0
+            qn += 1
+        out[2, r] = pairwise_sum(tmp, 0, qn) if qn > 0 else 0.0
+        out[3, r] = a4[n - 1] if n > 0 else prev4[r]
+        for j in range(T):
+            c[j] = c_tail[r, j]
+        acc = c_tail[r, T - 1]
+        for j in range(n):
+            acc = acc + sq[j]
+            c[T + j] = acc
+        if win >= 1:
+            best = 0.0
+            for k in range(a, b):
+                w = (c[k] - c[k - win]) / win
+                best = w if k == a else fold_max(best, w)
+            out[4, r] = best
+        for j in range(keep):
+            tail[r, j] = c[T + n - keep + j]
