@@ -200,6 +200,65 @@ def test_wrong_start_on_the_bump_is_not_a_test_of_adaptation(request):
     assert e["wrong_design_nonadaptive"][0] <= WITHIN * e["adaptive"][0], e
 
 
+def _bump_fall(ts, k):
+    """(secondary, primary) error at the fifth bump (9–11 s) / at the first (1–3 s), to the adaptive run's reference
+    (the same in every run)."""
+    ref = ts["adaptive"]
+
+    def e(a, b):
+        m = ((ts[k].t >= a) & (ts[k].t < b)).to_numpy()
+        return np.array([float(np.sqrt(np.mean((ts[k][c].to_numpy() - ref[f"ctrl.ref_z.{j}"].to_numpy())[m] ** 2)))
+                         for j, c in enumerate(("travel_secondary", "travel_primary"))])
+    return e(9, 11) / e(1, 3)
+
+
+def _edge_peak(t, b):
+    """max |body acceleration| at the edge of bump b (it starts at 1 + 2b s): −0.02 … +0.5 s."""
+    m = ((t.t >= 1 + 2 * b - 0.02) & (t.t < 1 + 2 * b + 0.5)).to_numpy()
+    return float(np.max(np.abs(t.body_acc.to_numpy()[m])))
+
+
+def test_a_second_bump_after_adaptation_is_followed_more_closely(request):
+    """Where adaptation matters on the bump (thesis Sec. 6.8: "as the time of adaptation increases, the adaptive
+    controlled system follows the reference model more closely"): the five bumps without the drifts, from the stated
+    wrong design (variant wrong_design_nodrift).  Both rattle-space errors at the fifth bump are ≤ 0.9× the first's
+    (measured 0.85× / 0.86×) while the same wrong design with adaptation off (the baseline) fails it (1.00×).  The
+    price (the page's "partly"): the adapted feedforward laws sharpen the bump edges, the body-acceleration peak at
+    the fifth edge is above 5× the baseline's (measured ≈ 22 vs 1.8 m/s²; the reference's 1.84)."""
+    ts = run_variants(request.config.rootpath, "thesis_ch6_bump",
+                      variants=("adaptive", "wrong_design_nodrift", "wrong_design_nodrift_nonadaptive"))
+    fall, base = _bump_fall(ts, "wrong_design_nodrift"), _bump_fall(ts, "wrong_design_nodrift_nonadaptive")
+    assert np.all(fall <= 0.9), fall
+    assert np.any(base > 0.9), base  # the baseline fails it
+    assert _edge_peak(ts["wrong_design_nodrift"], 4) > 5 * _edge_peak(ts["wrong_design_nodrift_nonadaptive"], 4)
+
+
+def test_bump_error_grows_through_the_drifts_with_and_without_adaptation(request):
+    """Fig. 6.13 (the bump with the mode I drifts): the drift claim the sines reproduce (error growth < 10 % while
+    the baseline's grows > 20 %) is not reproduced on the bump: the adaptive secondary error grows from the first to
+    the fifth bump by more than 50 % (measured 1.73 → 3.18 mm, ×1.84), the baseline's (adaptation off) by more
+    (×2.19); adaptation only lowers the fifth bump's error (below 0.85× the baseline's).  Pins the page's "not"."""
+    ts = run_variants(request.config.rootpath, "thesis_ch6_bump", variants=("adaptive",))
+    ts["nonadaptive"] = run_variants(request.config.rootpath, "thesis_ch6_bump", variants=("adaptive",),
+                                     edit=lambda raw: raw["controller"]["params"].update(alpha=0.0, beta=0.0))["adaptive"]
+    g_ad, g_na = _bump_fall(ts, "adaptive")[0], _bump_fall(ts, "nonadaptive")[0]
+    assert g_ad > 1.5 and g_na > g_ad, (g_ad, g_na)
+    late = {k: _errs(ts[k], 9, 11)[0] for k in ts}
+    assert late["adaptive"] < 0.85 * late["nonadaptive"], late
+
+
+def test_smaller_leakage_sharpens_the_bump_edges(request):
+    """Why the scenarios keep σ = 0.2 s⁻¹ (ours; the thesis prints no leakage) although σ = 0.02 closes the wrong
+    start's gap on the sines (test_leakage_holds_the_gap_to_the_right_design): on the bump with the drifts, from the
+    wrong start, σ = 0.02 lowers the fifth bump's secondary error (measured 1.91 vs 2.26 mm) but raises the
+    body-acceleration peak at the fifth bump edge by more than 1.4× (measured 44 vs 26 m/s², the reference's 1.84)."""
+    ts = run_variants(request.config.rootpath, "thesis_ch6_bump",
+                      variants=("adaptive", "wrong_design", "wrong_design_sigma002"))
+    late = {k: _errs(ts[k], 9, 11)[0] for k in ("wrong_design", "wrong_design_sigma002")}
+    assert late["wrong_design_sigma002"] < 0.9 * late["wrong_design"], late
+    assert _edge_peak(ts["wrong_design_sigma002"], 4) > 1.4 * _edge_peak(ts["wrong_design"], 4)
+
+
 def test_wrong_start_through_the_drifts_on_the_sines(request):
     """Sines with the mode I drifts from the stated wrong design (variant wrong_design_drift): the adaptive
     secondary error does not grow through the drifts (1–4 s → 14–24 s: measured 2.51 → 2.43 mm, bound 1.1×, the

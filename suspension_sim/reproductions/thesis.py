@@ -1245,6 +1245,8 @@ def _ch6_wrong_start(short, ts, wrong, right, windows):
 
     e = {(k, j): (err(k, j, e0, e1), err(k, j, l0, l1)) for k in (wrong, off, right) for j in (0, 1)}
     acc = {k: rms(ts[k].body_acc.to_numpy()[win(ts[k], l0, l1)]) for k in (wrong, off, right)}
+    ratio = [e[wrong, j][1] / e[right, j][1] for j in (0, 1)]
+    ratio_off = [e[off, j][1] / e[right, j][1] for j in (0, 1)]
     reach = all(e[wrong, j][1] <= WITHIN * e[right, j][1] for j in (0, 1))
     base_fails = all(e[off, j][1] > WITHIN * e[right, j][1] for j in (0, 1))
     verdict = ("reproduced" if reach and base_fails else "not shown" if reach else
@@ -1257,11 +1259,113 @@ def _ch6_wrong_start(short, ts, wrong, right, windows):
               f"rattle-space errors secondary / primary, {e0:g}–{e1:g} s → {l0:g}–{l1:g} s",
               "the initial controller parameters can be arbitrary: convergence independent of them (Sec. 6.9)",
               f"wrong start {pair(wrong)} mm (body acc {acc[wrong]:.2f} m/s²); adaptation off {pair(off)} mm "
-              f"({acc[off]:.2f}); right design {pair(right)} mm ({acc[right]:.2f})", verdict,
-              f"property: late error ≤ {WITHIN}× the right design's; " + (
+              f"({acc[off]:.2f}); right design {pair(right)} mm ({acc[right]:.2f}); late error / right design's: "
+              f"wrong start {ratio[0]:.3f}× / {ratio[1]:.3f}×, adaptation off {ratio_off[0]:.2f}× / {ratio_off[1]:.2f}×",
+              verdict,
+              f"property: late error ≤ {WITHIN}× the right design's in both rattle spaces (the bound reads the thesis's "
+              "'independent of the initial values' as 'the same late error as the right design's', with a 20 % "
+              "tolerance that is ours); " + (
                   "the baseline fails it" if base_fails else "the baseline passes it too: the wrong design hardly "
                   "matters here"))
-    return c, {f"{short}_wrong_secondary_err": (e[wrong, 0][1], 1e-3), f"{short}_wrong_primary_err": (e[wrong, 1][1], 1e-3)}
+    return c, {f"{short}_wrong_secondary_err": (e[wrong, 0][1], 1e-3), f"{short}_wrong_primary_err": (e[wrong, 1][1], 1e-3),
+               f"{short}_wrong_ratio_secondary": (ratio[0], 0.1), f"{short}_wrong_ratio_primary": (ratio[1], 0.1)}
+
+
+# the five bumps of thesis_ch6_bump: bump b starts at 1 + 2b s; its window is the 2 s to the next bump's start (the
+# fifth's, 9–11 s, as long as the others: the wrong-start claim's 9–12 s window holds a quiet second more)
+BUMP_WIN = [(1.0 + 2 * b, 3.0 + 2 * b) for b in range(5)]
+EDGE = (-0.02, 0.5)  # the bump edge: from just before the bump starts to 0.3 s after it ends (0.2 s long)
+FALL = 0.9  # "as the time of adaptation increases, [it] follows the reference model more closely": ≥ 10 % less (ours)
+
+
+def _bump_errs(t, a, lo, hi):
+    """(secondary, primary) rattle-space error RMS of run t in [lo, hi) to run a's reference (the same reference in
+    every Ch. 6 bump run: the wrong designs keep the thesis's K_ms, K_mp through ref_*)."""
+    m = win(t, lo, hi)
+    return tuple(rms((t[c].to_numpy() - a[f"ctrl.ref_z.{j}"].to_numpy())[m])
+                 for j, c in enumerate(("travel_secondary", "travel_primary")))
+
+
+def _edge_peak(t, col, b):
+    """max |col| at the edge of bump b (its start − 0.02 s to its start + 0.5 s)."""
+    t0 = BUMP_WIN[b][0]
+    return float(np.max(np.abs(t[col].to_numpy()[win(t, t0 + EDGE[0], t0 + EDGE[1])])))
+
+
+def _ch6_bump_claims(ts):
+    """Where adaptation matters on the bump, and the leakage σ at the bump edges (page, Ch. 6)."""
+    a = ts["adaptive"]
+    claims, key = [], {}
+    f, l = BUMP_WIN[0], BUMP_WIN[4]
+
+    def fl(k):
+        return _bump_errs(ts[k], a, *f), _bump_errs(ts[k], a, *l)
+
+    def txt(k):
+        e0, e1 = fl(k)
+        return " / ".join(f"{e0[j] * 1000:.2f} → {e1[j] * 1000:.2f}" for j in (0, 1))
+
+    # 1. the mode I drifts (Fig. 6.13 is the bump with the drifts): first bump → fifth bump
+    grow = {k: fl(k)[1][0] / fl(k)[0][0] for k in ("adaptive", "nonadaptive", "passive")}
+    ok = grow["adaptive"] < 1.1 and grow["nonadaptive"] > 1.2
+    claims.append(Claim(
+        "bump: following irrespective of the mode I drifts (rattle-space errors secondary / primary, first bump "
+        f"{f[0]:g}–{f[1]:g} s → fifth bump {l[0]:g}–{l[1]:g} s)",
+        "with the time-dependent parametric variations the controller adapts the gains so that the model follows "
+        "the reference (Fig. 6.13)",
+        f"adaptive {txt('adaptive')} mm (×{grow['adaptive']:.2f}); adaptation off {txt('nonadaptive')} mm "
+        f"(×{grow['nonadaptive']:.2f}); passive {txt('passive')} mm (×{grow['passive']:.2f})",
+        "reproduced" if ok else "not",
+        "property (the sine drift claim's): the secondary error grows < 10 % while the baseline's grows > 20 %"))
+    key["bump_drift_growth"] = (grow["adaptive"], 0.1)
+    # 2. a second bump after adaptation: the same bumps without the drifts, from the stated wrong design
+    w, o, r = "wrong_design_nodrift", "wrong_design_nodrift_nonadaptive", "adaptive_nodrift"
+    if all(k in ts for k in (w, o, r)):
+        fall = {k: [fl(k)[1][j] / fl(k)[0][j] for j in (0, 1)] for k in (w, o, r)}
+        pk = {k: (_edge_peak(ts[k], "body_acc", 0), _edge_peak(ts[k], "body_acc", 4)) for k in (w, o, r, "passive")}
+        pk_ref = _edge_peak(a, "ctrl.ref_acc", 4)
+        force = {k: max(_edge_peak(ts[k], c, 4) for c in ("actuator_force_secondary", "actuator_force_primary"))
+                 for k in (w, o, r)}
+        passes = all(x <= FALL for x in fall[w])
+        base_fails = any(x > FALL for x in fall[o])
+        harsh = pk[w][1] > 2 * pk_ref
+        verdict = ("not" if not passes else "not shown" if not base_fails else "partly" if harsh else "reproduced")
+        claims.append(Claim(
+            "bump, no drifts, from the wrong design (K_s −30 %, K_p +30 %, C_s +30 %, C0_p −30 %; ours): a second "
+            "bump after adaptation (rattle-space errors secondary / primary, first → fifth bump; body-acceleration "
+            "peak at the first → fifth bump edge)",
+            "as the time of adaptation increases the adaptive system follows the reference more closely (Sec. 6.8); "
+            "the bump response is the reference's 'forced motion with lower magnitude and damped nature'",
+            f"wrong start {txt(w)} mm (×{fall[w][0]:.3f} / ×{fall[w][1]:.3f}), peak {pk[w][0]:.1f} → {pk[w][1]:.1f} "
+            f"m/s², forces to {force[w]:.0f} N; adaptation off (same start) {txt(o)} mm (×{fall[o][0]:.3f} / "
+            f"×{fall[o][1]:.3f}), peak {pk[o][0]:.1f} → {pk[o][1]:.1f} m/s², {force[o]:.0f} N; right design {txt(r)} "
+            f"mm, peak {pk[r][0]:.1f} → {pk[r][1]:.1f} m/s², {force[r]:.0f} N; reference peak {pk_ref:.2f}, passive "
+            f"{pk['passive'][1]:.1f} m/s²", verdict,
+            f"property: both errors at the fifth bump ≤ {FALL}× the first's (ours: 'more closely' read as ≥ 10 % "
+            "less); the baseline " + ("fails it" if base_fails else "passes it too") + "; " + (
+                "but the adapted feedforward laws (M0, C0, K0, D0) sharpen the bump edges: body-acceleration peak "
+                "above 2× the reference's" if harsh else "the edge peaks stay within 2× the reference's")))
+        key["bump_nodrift_fall_secondary"] = (fall[w][0], 0.1)
+        key["bump_nodrift_fall_primary"] = (fall[w][1], 0.1)
+    # 3. the leakage σ (ours) at the bump edges: 0.02 closes the wrong start's gap on the sines; what it does here
+    if "adaptive_sigma002" in ts and "wrong_design_sigma002" in ts:
+        pairs = (("right design", "adaptive", "adaptive_sigma002"), ("wrong start", "wrong_design", "wrong_design_sigma002"))
+        parts = []
+        for lbl, k2, k02 in pairs:
+            parts.append(f"{lbl}: fifth-bump errors {fl(k2)[1][0] * 1000:.2f} / {fl(k2)[1][1] * 1000:.2f} mm at σ = 0.2, "
+                         f"{fl(k02)[1][0] * 1000:.2f} / {fl(k02)[1][1] * 1000:.2f} at 0.02; edge peak (first → fifth "
+                         f"bump) {_edge_peak(ts[k2], 'body_acc', 0):.1f} → {_edge_peak(ts[k2], 'body_acc', 4):.1f} "
+                         f"m/s² at 0.2, {_edge_peak(ts[k02], 'body_acc', 0):.1f} → "
+                         f"{_edge_peak(ts[k02], 'body_acc', 4):.1f} at 0.02")
+        sharper = all(_edge_peak(ts[k02], "body_acc", 4) > _edge_peak(ts[k2], "body_acc", 4) for _, k2, k02 in pairs)
+        claims.append(Claim(
+            "the leakage σ at the bump edges (ours; the thesis prints no leakage): σ = 0.2 s⁻¹ (the scenarios') "
+            "against 0.02 (closes the wrong start's gap on the sines)", "(no σ in the thesis)",
+            "; ".join(parts) + f"; reference peak {_edge_peak(a, 'ctrl.ref_acc', 4):.2f} m/s²", "n.a.",
+            "σ = 0.2 kept on every road: " + ("0.02 lowers the errors but sharpens every bump edge, more at each bump"
+                                              if sharper else "0.02 does not sharpen the bump edges here")))
+        key["bump_sigma002_wrong_peak"] = (_edge_peak(ts["wrong_design_sigma002"], "body_acc", 4), 0.1)
+    return claims, key
 
 
 
@@ -1326,6 +1430,10 @@ def ch6(ctx) -> ItemOutput:
                                 "reproduced" if acc_st < 1.5 * acc_ref and e_st < 0.8 * e[sec]["nonadaptive"] else "not",
                                 "the printed laws' K_v drift breaks the nominal cancellation of the primary's motion"))
             key[f"{short}_structured_acc"] = (acc_st, 0.1)
+        if short == "bump":
+            c_, k_ = _ch6_bump_claims(ts)
+            claims += c_
+            key.update(k_)
         wv = "wrong_design_drift" if short == "sine" else "wrong_design"
         if wv in ts:
             c, k_ = _ch6_wrong_start(short, ts, wv, "adaptive", WINDOWS_CH6[short])
