@@ -16,6 +16,11 @@ _os.environ.setdefault("MUJOCO_GL", "egl")
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     _os.environ.setdefault(_var, "1")
 
+# numba's on-disk cache: saves of new signatures locked between processes (batch workers, pytest-xdist)
+from .numba_cache import install as _lock_numba_cache  # noqa: E402
+
+_lock_numba_cache()
+
 from .version import __version__  # noqa: E402
 from .config import Scenario, load_scenario  # noqa: E402
 from .errors import ScenarioError, SimulationDiverged  # noqa: E402

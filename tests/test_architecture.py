@@ -3,7 +3,8 @@
 Layers, lowest first (a module may import its own layer or lower ones, never a higher one):
 
 0 base        errors, version, channels, kernels, components, registry, buffers, compiled (package), compiled.mj,
-              compiled.numpy_order, compiled.views, limits, strict, safeyaml, outdir, lifecycle, free_parameters
+              compiled.numpy_order, compiled.views, limits, strict, safeyaml, outdir, lifecycle, numba_cache,
+              free_parameters
 1 components  vehicles, effects, actuators, roads, sensors, controllers, maneuvers, maneuvers_dlc
 2 config      config
 3 build       plant, build (scenario -> a System of components; no stepping)
@@ -34,7 +35,7 @@ MODULES = {
     "suspension_sim": APPS,
     "suspension_sim.errors": BASE, "suspension_sim.version": BASE, "suspension_sim.channels": BASE,
     "suspension_sim.limits": BASE, "suspension_sim.strict": BASE, "suspension_sim.safeyaml": BASE,
-    "suspension_sim.outdir": BASE, "suspension_sim.lifecycle": BASE, "suspension_sim.free_parameters": BASE,
+    "suspension_sim.outdir": BASE, "suspension_sim.lifecycle": BASE, "suspension_sim.numba_cache": BASE, "suspension_sim.free_parameters": BASE,
     "suspension_sim.kernels": BASE, "suspension_sim.components": BASE, "suspension_sim.registry": BASE,
     "suspension_sim.compiled": BASE, "suspension_sim.compiled.mj": BASE, "suspension_sim.compiled.numpy_order": BASE,
     "suspension_sim.compiled.views": BASE, "suspension_sim.buffers": BASE,
