@@ -49,6 +49,7 @@ class Scales:
 class Candidate:
     name = ""
     signature = ""
+    parent: str | None = None  # a placement tried only when this candidate lowered the training BIC (full car)
 
     def applies(self, spec: ModelSpec, sc: Scales) -> tuple[bool, str]:
         return True, ""
@@ -81,10 +82,13 @@ def _free_params(prefix, decl: dict, sc: Scales):
 
 
 class EffectCandidate(Candidate):
-    def __init__(self, etype: str, ecls, corners="all", placement: str | None = None):
+    def __init__(self, etype: str, ecls, corners="all", placement: str | None = None, parent: str | None = None):
         self.etype, self.ecls, self.corners = etype, ecls, corners
         self.name = etype if placement is None else f"{etype}@{placement}"
         self.signature = getattr(ecls, "signature", "")
+        # the smallest placement that holds this one (a corner's axle, an axle's "all"): on the full car a
+        # placement is tried only when its parent lowered the training BIC in the same round (Selector)
+        self.parent = parent
 
     def applies(self, spec, sc):
         if any(e.type == self.etype for e in spec.effects):
@@ -213,13 +217,26 @@ def _axles(kind: str) -> dict[str, list[str]]:
 def _placements(kind: str) -> dict[str, list[str]]:
     """Where an effect may sit besides everywhere: each axle of a multi-axle car, and each corner where an
     axle has more than one (the full car: ``fl``, ``fr``, ``rl``, ``rr``)."""
+    return {k: c for k, (c, _parent) in _placement_tree(kind).items()}
+
+
+def _placement_tree(kind: str) -> dict[str, tuple[list[str], str | None]]:
+    """The placements of :func:`_placements` with their parents: an axle's is everywhere (None), a corner's its
+    axle."""
     axles = _axles(kind)
-    out = dict(axles)
+    out = {ax: (cs, None) for ax, cs in axles.items()}
     if any(len(c) > 1 for c in axles.values()):
-        for corners in axles.values():
+        for ax, corners in axles.items():
             for c in corners:
-                out[c] = [c]
+                out[c] = ([c], ax)
     return out
+
+
+def staged(kind: str) -> bool:
+    """Whether the placements of this model kind are searched nested (a corner only when its axle, an axle
+    only when everywhere lowered the training BIC): the full car, whose 7 placements per effect (everywhere,
+    2 axles, 4 corners) made a round 9 × 7 effect fits; a half car's 3 are all tried."""
+    return any(parent is not None for _c, parent in _placement_tree(kind).values())
 
 
 def library(spec: ModelSpec, placements: bool = True) -> list[Candidate]:
@@ -228,11 +245,13 @@ def library(spec: ModelSpec, placements: bool = True) -> list[Candidate]:
     from .engine import writable_params
 
     out: list[Candidate] = []
-    axles = _placements(spec.kind) if placements else {}
+    tree = _placement_tree(spec.kind) if placements else {}
+    nested = staged(spec.kind)
     for etype, ecls in effect_candidates().items():
         out.append(EffectCandidate(etype, ecls))
-        for ax, corners in axles.items():
-            out.append(EffectCandidate(etype, ecls, corners, ax))
+        for ax, (corners, parent) in tree.items():
+            par = (etype if parent is None else f"{etype}@{parent}") if nested else None
+            out.append(EffectCandidate(etype, ecls, corners, ax, par))
     if spec.kind != "damper":
         acls = ACTUATORS.get("ideal")
         for pn, fp in (getattr(acls, "free_parameters", None) or {}).items():

@@ -677,20 +677,40 @@ class Selector:
             rnd += 1
             prev = {t.name: t for t in trials if t.round == rnd - 1}
             in_model = {c.name for cs, _, _ in added for c in cs}
-            jobs, order = [], []
-            for cand in lib:
-                if cand.name in in_model:
-                    continue
-                ok, why = cand.applies(current_spec, sc)
-                pt = prev.get(cand.name)
-                if ok and pt is not None and pt.applicable and np.isfinite(pt.d_bic) and pt.d_bic >= 0:
-                    ok, why = False, f"pruned: no training improvement in round {rnd - 1} (ΔBIC {pt.d_bic:+.1f})"
-                if not ok:
-                    order.append(Trial(cand.name, rnd, False, why))
-                    continue
-                order.append(len(jobs))
-                jobs.append((([cand], rnd, current_spec, current, cur_screen, e_screen), {}))
-            results = attempts(jobs, order)
+            # nested placements (the full car): a candidate with a parent placement is tried after it, and only
+            # when the parent lowered the training BIC in this round (an effect on the front corners lowers it
+            # everywhere too, as a weaker effect on all four); the others first, in one batch
+            results, this_round = [], {}
+            stage = [c for c in lib if c.parent is None]
+            while stage:
+                jobs, order = [], []
+                for cand in stage:
+                    if cand.name in in_model:
+                        continue
+                    ok, why = cand.applies(current_spec, sc)
+                    pt = prev.get(cand.name)
+                    if ok and pt is not None and pt.applicable and np.isfinite(pt.d_bic) and pt.d_bic >= 0:
+                        ok, why = False, f"pruned: no training improvement in round {rnd - 1} (ΔBIC {pt.d_bic:+.1f})"
+                    if not ok:
+                        order.append(Trial(cand.name, rnd, False, why))
+                        continue
+                    order.append(len(jobs))
+                    jobs.append((([cand], rnd, current_spec, current, cur_screen, e_screen), {}))
+                n0 = len(trials)
+                results += attempts(jobs, order)
+                this_round.update({t.name: t for t in trials[n0:]})
+                done, stage = {c.name for c in stage}, []
+                for cand in lib:  # (the library lists a placement after its parent)
+                    if cand.parent is None or cand.parent not in done:
+                        continue
+                    pt = this_round.get(cand.parent)
+                    if pt is not None and pt.applicable and np.isfinite(pt.d_bic) and pt.d_bic < 0:
+                        stage.append(cand)
+                    elif cand.name not in in_model:
+                        trials.append(Trial(cand.name, rnd, False, f"not tried: {cand.parent} did not lower the "
+                                                                   f"training BIC in this round"))
+                        this_round[cand.name] = trials[-1]
+                        done.add(cand.name)  # its own placements are not tried either
             kept = [r for r in results if r[2].kept]
             Ecur = float(np.sqrt(np.mean(e_cur ** 2)))
             fl = float(np.sqrt(np.mean(floor_n ** 2)))
