@@ -77,10 +77,13 @@ class Sine(Road):
                 k = 2 * np.pi / col("wavelength")
             if grid is not None and not fade:
                 src, anchors, h = (t, grid.t_anchor, grid.dt) if temporal else (x, grid.x_anchor, grid.dx)
-                z, dz = np.empty((len(idx), len(src))), np.empty((len(idx), len(src)))
+                # computed step-major (a step's rows side by side) and returned as (rows, samples) views of it,
+                # which road_chunk copies into its step-major chunk without a transpose
+                z, dz = np.empty((len(src), len(idx))), np.empty((len(src), len(idx)))
                 sine_grid(np.asarray(src, dtype=float), col("start")[:, 0], k[:, 0], col("phase")[:, 0],
                           col("amplitude")[:, 0], np.asarray(anchors, dtype=float), int(grid.g0), int(grid.M),
                           float(h), z, dz)
+                z, dz = z.T, dz.T
             else:
                 s = (np.asarray(t, dtype=float) if temporal else np.asarray(x, dtype=float))[None, :] - col("start")
                 z, dz = sine_law(s, col("amplitude"), k, col("phase"), col("fade_in") if fade else None)
@@ -122,38 +125,52 @@ def sine_law(s, amplitude, k, phase, fade_in):
 @numba.njit(cache=True, nogil=True)
 def sine_grid(src, start, k, phase, amplitude, anchors, g0, M, h, z, dz):  # pragma: no cover - compiled
     """:func:`sine_law` without fade-in of rows r (parameters ``start``, ``k``, ``phase``, ``amplitude``) on
-    samples ``src`` (corner time or distance) of consecutive physics steps g0, g0 + 1, ... spaced ``h`` apart:
-    sin and cos of k (s − start) + φ from exact values at the anchor steps (multiples of M; ``anchors[i]``
-    the sample of step M·(floor(g0/M) + i)) rotated step by step by k·h, so that a step's value is the same
-    whichever chunk it is computed in.  The edge (0 before the start, the slope's edge weight) from ``src``; on
-    the start itself the closed form's numbers."""
+    samples ``src`` (corner time or distance) of consecutive physics steps g0, g0 + 1, ... spaced ``h`` apart,
+    into ``z[j, r]``, ``dz[j, r]`` (step-major): sin and cos of k (s − start) + φ from exact values at the anchor
+    steps (multiples of M; ``anchors[i]`` the sample of step M·(floor(g0/M) + i)) rotated step by step by k·h,
+    so that a step's value is the same whichever chunk it is computed in.  The edge (0 before the start, the
+    slope's edge weight) from ``src``; on the start itself the closed form's numbers."""
     n = src.shape[0]
+    R = start.shape[0]
     a0 = (g0 // M) * M
-    for r in range(z.shape[0]):
-        kr, ph, A = k[r], phase[r], amplitude[r]
-        s0 = np.sin(ph)
-        Ak = A * kr
-        cd, sd = np.cos(kr * h), np.sin(kr * h)
-        c, sn = 0.0, 0.0
-        for j in range(n):
-            g = g0 + j
-            m = g % M
-            if j == 0 or m == 0:
-                arg = kr * (anchors[(g - m - a0) // M] - start[r]) + ph
-                c, sn = np.cos(arg), np.sin(arg)
+    s0 = np.empty(R)
+    Ak = np.empty(R)
+    cd = np.empty(R)
+    sd = np.empty(R)
+    c = np.empty(R)
+    sn = np.empty(R)
+    for r in range(R):
+        s0[r] = np.sin(phase[r])
+        Ak[r] = amplitude[r] * k[r]
+        cd[r] = np.cos(k[r] * h)
+        sd[r] = np.sin(k[r] * h)
+    for j in range(n):
+        g = g0 + j
+        m = g % M
+        if j == 0 or m == 0:
+            anc = anchors[(g - m - a0) // M]
+            for r in range(R):
+                arg = k[r] * (anc - start[r]) + phase[r]
+                cc, ss = np.cos(arg), np.sin(arg)
                 for _ in range(m):
-                    c, sn = c * cd - sn * sd, sn * cd + c * sd
-            else:
-                c, sn = c * cd - sn * sd, sn * cd + c * sd
-            zz = A * (sn - s0)
-            d = Ak * c
+                    cc, ss = cc * cd[r] - ss * sd[r], ss * cd[r] + cc * sd[r]
+                c[r] = cc
+                sn[r] = ss
+        else:
+            for r in range(R):
+                cc, ss = c[r], sn[r]
+                c[r] = cc * cd[r] - ss * sd[r]
+                sn[r] = ss * cd[r] + cc * sd[r]
+        for r in range(R):
+            zz = amplitude[r] * (sn[r] - s0[r])
+            d = Ak[r] * c[r]
             sj = src[j] - start[r]
             if not sj > 0.0:
                 if sj == 0.0:  # on the start: the closed form's exact numbers (the argument is φ)
                     zz = 0.0
-                    d = 0.5 * (Ak * np.cos(ph))
+                    d = 0.5 * (Ak[r] * np.cos(phase[r]))
                 else:
                     zz = 0.0
                     d = 0.0 * d
-            z[r, j] = zz
-            dz[r, j] = d
+            z[j, r] = zz
+            dz[j, r] = d
