@@ -280,6 +280,14 @@ def ch3_adaptation(ctx) -> ItemOutput:
            "blowoff_follow_adaptive": (fb["blowoff_adaptive"][1], 1e-5)}
     if "known" in f:
         key["follow_known_40_60"] = (f["known"][-1], 1e-5)
+    # the other rows' numbers: the body acceleration row (10 ms samples), the baselines of the blow-off and drift rows,
+    # the blow-off's Θ distance
+    for k_ in ("adaptive", "nonadaptive"):
+        key[f"acc_{k_}_0_5"] = (acc[k_][0], 0.01)
+        key[f"acc_{k_}_40_60"] = (acc[k_][1], 0.01)
+    key["blowoff_follow_nonadaptive"] = (fb["blowoff_nonadaptive"][1], 1e-5)
+    key["drift_follow_nonadaptive"] = (fd["drift_nonadaptive_thetad"], 1e-5)
+    key["blowoff_theta_dist_end"] = (db[1], 0.05)
     return ItemOutput(claims, key=key, figure=fig, notes=[HALF_NOTE])
 
 
