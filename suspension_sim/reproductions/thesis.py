@@ -125,6 +125,11 @@ def ch3_load_step(ctx) -> ItemOutput:
            "thesis_force": (f["mrac_thesis"], 10.0),
            "mrac_level": (z["mrac_thetad"], 0.01), "mrac_force": (f["mrac_thetad"], 10.0),
            "follow_mrac": (follow["mrac_thetad"], 1e-5), "theta_err_20s": (float(rel20.max()), 0.01)}
+    # the rows' other numbers: the level 2-s means after the step, the printed law's and the wrong start's following
+    for k_, a_ in enumerate(after):
+        key[f"level_after_step_{2 * k_}_{2 * k_ + 2}s"] = (a_, 1e-3)
+    key["follow_thesis"] = (follow["mrac_thesis"], 1e-5)
+    key["follow_wrong_start"] = (follow["mrac_thetad_wrong_start"], 1e-5)
     return ItemOutput(claims, key=key, figure=fig, notes=[HALF_NOTE])
 
 
@@ -378,6 +383,9 @@ def ch3_dirt(ctx) -> ItemOutput:
     fig.tight_layout()
     key = {"thesis_stop_time": (t_stop, 0.1), "thesis_nonadaptive_stop_time": (t_stop_off, 0.1), "passive_level": (zp, 0.01), "mrac_level": (za, 0.01), "ratio_res": (ra[1], 0.1), "ratio_hi": (ra[3], 0.1),
            "follow_adaptive": (fa, 1e-3), "follow_nonadaptive": (fn, 1e-3)}
+    for i_, (lo_, hi_) in enumerate(bands):  # every band of the PSD-ratio rows (adaptive, passive, adaptation off)
+        for n_, r_ in (("adaptive", ra), ("passive", rp), ("nonadaptive", rn)):
+            key[f"psd_ratio_{n_}_{lo_:g}_{hi_:g}Hz"] = (r_[i_], 0.1)
     return ItemOutput(claims, key=key, figure=fig, notes=[HALF_NOTE])
 
 
