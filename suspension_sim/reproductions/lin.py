@@ -120,6 +120,9 @@ def fig2(ctx) -> ItemOutput:
     key = {"rms_acc_known": (J["known"], 0.1), "rms_acc_mb_plus": (J["mb_plus_ka_minus"], 0.1),
            "rms_acc_mb_minus": (J["mb_minus_ka_plus"], 0.1),
            "peak_acc_known": (float(np.max(np.abs(k.body_acc))), 1.0), "body_z_peak": (zmax, 1e-3)}
+    for c, fl in (("body_acc", 1.0), ("act.load_pressure", 1e5), ("travel", 1e-3), ("wheel_z", 1e-3)):
+        key[f"envelope_min {c}"] = (env[c][0], fl)  # the axis rows: every curve's range
+        key[f"envelope_max {c}"] = (env[c][1], fl)
     notes = [f"RMS deviation from the known run over 0.5–1.5 s: {dev['mb_plus_ka_minus']:.2f} and "
              f"{dev['mb_minus_ka_plus']:.2f} m/s². Grey bands: the paper's axis ranges."]
     return ItemOutput(claims, key=key, figure=fig, notes=notes)
@@ -294,6 +297,9 @@ def _fig45(n):
                "theta_end": (float(th[-1]), 10.0), "travel_adaptive": (trav["adaptive"], 1e-3)}
         peak = {v: float(np.max(np.abs(res[v].ts.body_acc))) for v in res}
         stop = {v: float(np.mean(np.abs(res[v].ts["act.spool_position"].to_numpy()[w]) >= 0.00999)) for v in res}
+        for v in res:  # the rows' other numbers: every run's travel and peak acceleration (the time at a spool stop
+            key[f"travel_{v}"] = (trav[v], 1e-3)  # is a count of 0.5 ms log samples, not a key: see the page)
+            key[f"peak_acc_{v}"] = (peak[v], 1.0)
         notes = ["Time at a spool stop (|x_v| = 1 cm), 0.5–0.8 s: " + ", ".join(f"{v} {stop[v]:.0%}" for v in res) + ".",
                  "Peak |body acc| over the run: " + ", ".join(f"{v} {peak[v]:.1f}" for v in res) + " m/s² (paper's "
                  "axis ±50)."]
