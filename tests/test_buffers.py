@@ -14,9 +14,11 @@ from suspension_sim.simulation import Simulation
 
 
 @pytest.fixture(autouse=True)
-def _empty_pool():
+def _empty_pool(monkeypatch):
+    """A pool of this test's own: buffers still referenced by results of earlier tests in the same worker
+    (module fixtures of other files under pytest-xdist) stay busy in the shared pool and spoiled the counts."""
     gc.collect()
-    buffers.release()
+    monkeypatch.setattr(buffers, "_pool", [])
     yield
     gc.collect()
     buffers.release()
