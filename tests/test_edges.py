@@ -466,7 +466,9 @@ def test_batch_killed_halfway_resumes_without_losing_or_redoing_runs(tmp_path):
     resumed batch computes only the missing runs; the final summary equals an uninterrupted batch's."""
     from suspension_sim.batch import Store, run_batch
 
-    _write(tmp_path, SWEEP_SCENARIO, "base.yaml")
+    # 5 s runs (not 20): resuming does not depend on the length of a run, and 37 runs still to do after the
+    # third part leave the kill seconds of margin
+    _write(tmp_path, {**SWEEP_SCENARIO, "sim": {"duration": 5.0}}, "base.yaml")
     sw = tmp_path / "sweep.yaml"
     n = 40
     sw.write_text(yaml.safe_dump({"base": "base.yaml", "grid": {"vehicle.params.damping": [800 + 50 * i for i in range(n)]},
