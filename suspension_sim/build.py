@@ -17,6 +17,8 @@ Stepping the system is :mod:`suspension_sim.loop` (Python) and :mod:`suspension_
 from __future__ import annotations
 
 import dataclasses
+import functools
+import inspect
 from typing import Sequence
 
 import mujoco
@@ -418,13 +420,13 @@ class System:
                 tc = sp.time_at(xc, t)
                 tc_rate = sp.time_at_rate(xc[1:-1], t[1:-1])
             grid = None
-            if sp.const is not None:  # a uniform step grid: corner time and distance at the anchor steps too
+            if sp.const is not None and _takes_grid(rcls):  # a uniform step grid: corner time and distance at the anchor steps too
                 g0 = k0 - 1
                 ta = np.arange((g0 // ANCHOR) * ANCHOR, k1 + 1, ANCHOR) * self.dt
                 xa = sp.distance(ta) - back
                 grid = StepGrid(g0=g0, dt=self.dt, dx=sp.const * self.dt, x_anchor=xa,
                                 t_anchor=ta if back == 0 else sp.time_at(xa, ta))
-            h, zt, zx = rcls.height_slopes_many(roads, tc, xc, track, grid=grid)
+            h, zt, zx = rcls.height_slopes_many(roads, tc, xc, track, **({"grid": grid} if _takes_grid(rcls) else {}))
             # the exact time derivative of the height each wheel sees (Road.rate: the road's own derivative
             # law), zt·(corner time rate) + zx·speed, not a difference over ±dt (whose O(dt²) error on a spline
             # road moved results with the step); written step-major with the heights, wheel by wheel (a road
@@ -672,6 +674,16 @@ def variation_value(v, t: float, nominal):
     if v.mode == "scale":
         return nominal * val
     return np.full_like(nominal, val)
+
+
+@functools.lru_cache(maxsize=None)
+def _takes_grid(rcls) -> bool:
+    """Whether ``rcls.height_slopes_many`` takes the ``grid`` keyword (a road class written before it existed
+    overrides the method without it)."""
+    try:
+        return "grid" in inspect.signature(rcls.height_slopes_many).parameters
+    except (TypeError, ValueError):  # pragma: no cover
+        return False
 
 
 @numba.njit(cache=True, nogil=True)

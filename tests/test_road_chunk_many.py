@@ -130,3 +130,20 @@ def test_sine_recurrence_is_the_closed_form_and_independent_of_the_chunks(params
         assert np.array_equal(joined, np.concatenate([sim.road_chunk(1990, 2000)[j], sim.road_chunk(2000, 2140)[j]],
                                                      axis=1))
     assert road.p.fade_in == 0
+
+
+def test_a_road_class_without_the_grid_keyword_still_works():
+    """A road class written before the ``grid`` keyword existed (its own height_slopes_many without it) is called
+    without it, and gives its numbers."""
+    from suspension_sim.roads.base import Road
+
+    class OldSine(Sine):
+        @classmethod
+        def height_slopes_many(cls, roads, t, x, track=0):
+            return Road.height_slopes_many.__func__(cls, roads, t, x, track)
+
+    sim = Simulation(_scs("quarter_car", [{"type": "sine", "params": SINES[0]}] * 3, 20.0))
+    sim.roads = [OldSine(r.p, None, r.ctx) for r in sim.roads]
+    z, zd = sim.road_chunk(0, 300)
+    ref = _reference(sim, 0, 300)
+    assert np.array_equal(z, ref[0]) and np.array_equal(zd, ref[1])
