@@ -1,0 +1,336 @@
+"""A blind battery for `suspension-sim diagnose`: records from an independent quarter-car truth
+(benchmarks/blind_truth.py: its own ODE, force laws, vehicles, roads and sensors; nothing from
+suspension_sim), written as data files (CSV) with the nominal model a user would supply (MODEL.yaml),
+diagnosed one at a time and scored: hidden set, named set, exact or not, false effects, fitted values against
+the truth, held-out error against the true noise floor.
+
+Run:  nice -n 10 python benchmarks/blind_battery.py [--only a,b] [--out DIR] [--list]
+The battery is deterministic (one seed per record); the records go to a temporary folder (or --out).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import blind_truth as bt  # noqa: E402
+
+warnings.filterwarnings("ignore")
+OUT3 = ["body_acc", "wheel_acc", "susp_travel"]
+NAMES = {"coulomb": "coulomb_friction", "stops": "bump_stop", "asym": "asymmetric_damping",
+         "cubic": "cubic_stiffness", "lag": "actuator_lag", "liftoff": "tire_liftoff",
+         "mass": "parameter:sprung_mass", "quad": "quadratic_damping"}
+
+
+# ------------------------------------------------------------------------------------------------------
+# the records: (name, seed, vehicle, road, hidden effects, sensors, what the user states)
+# ------------------------------------------------------------------------------------------------------
+def _road(rng, kind, duration, **kw):
+    if kind == "iso":
+        return bt.iso_road(rng, kw["cls"], kw["speed"])
+    if kind == "bumps":
+        bg = bt.iso_road(rng, kw.get("bg", "A"), kw["speed"]) if kw.get("bg") else None
+        return bt.Bumps(rng, duration, kw["speed"], h_range=kw.get("h", (0.02, 0.05)),
+                        L_range=kw.get("L", (0.4, 2.5)), gap_range=kw.get("gaps", (8.0, 25.0)), background=bg)
+    if kind == "sweep":
+        return bt.Sweep(kw.get("f0", 0.5), kw.get("f1", 20.0), duration, kw["amp"], kw.get("p", 0.5))
+    raise ValueError(kind)
+
+
+def _force(rng, kind, duration, **kw):
+    if kind is None:
+        return bt.Zero()
+    if kind == "random":  # a random force command (sum of sines 0.3–20 Hz)
+        n = 40
+        f = np.exp(rng.uniform(np.log(0.3), np.log(20.0), n))
+        a = np.ones(n) / np.sqrt(n / 2) * kw["rms"]
+        return bt.SineSum(a, 2 * np.pi * f, rng.uniform(0, 2 * np.pi, n))
+    if kind == "sweep":
+        return bt.Sweep(kw.get("f0", 0.5), kw.get("f1", 25.0), duration, kw["amp"], 0.0)
+    raise ValueError(kind)
+
+
+# Each record: vehicle, road spec, force spec, hidden (strengths relative to the linear car's response where
+# marked "rel"), sensors (noise level, colour per channel, biases, travel offset), damping stated or free,
+# position zero.  Strengths are drawn from the seed inside stated ranges.
+RECORDS = {
+    "null_sedan_white": dict(veh="sedan", road=("iso", dict(cls="C", speed=20)), hidden={}, noise=(0.02, "white")),
+    "null_truck_pink": dict(veh="truck", road=("iso", dict(cls="C", speed=22)), hidden={}, noise=(0.02, "pink"),
+                            bias=(0.25, -0.4)),
+    "null_suv_brown_offset": dict(veh="suv", road=("bumps", dict(speed=12, bg="B")), hidden={},
+                                  noise=(0.02, "brown"), travel_offset=0.006, zero="measured"),
+    "coulomb_sedan_stick": dict(veh="sedan", road=("iso", dict(cls="C", speed=18)),
+                                hidden={"coulomb": dict(rel=(0.15, 0.3), law="stick")}, noise=(0.02, "white")),
+    "coulomb_truck_stick": dict(veh="truck", road=("iso", dict(cls="D", speed=15)),
+                                hidden={"coulomb": dict(rel=(0.15, 0.3), law="stick")}, noise=(0.02, "pink")),
+    "coulomb_sports_tanh": dict(veh="sports", road=("iso", dict(cls="D", speed=25)),
+                                hidden={"coulomb": dict(rel=(0.15, 0.3), law="tanh", v_eps=0.004)},
+                                noise=(0.015, "white")),
+    "stops_sedan_bumps": dict(veh="sedan", road=("bumps", dict(speed=10, h=(0.03, 0.07))),
+                              hidden={"stops": dict(q=(0.985, 0.995), sides="both")}, noise=(0.02, "white")),
+    "stops_suv_comp_only": dict(veh="suv", road=("iso", dict(cls="D", speed=20)),
+                                hidden={"stops": dict(q=(0.97, 0.99), sides="comp")}, noise=(0.02, "pink"),
+                                bias=(-0.2, 0.0)),
+    "stops_truck_damped": dict(veh="truck", road=("bumps", dict(speed=8, bg="B", h=(0.03, 0.06))),
+                               hidden={"stops": dict(q=(0.98, 0.99), sides="both", damped=True)},
+                               noise=(0.02, "white")),
+    "asym_sedan_iso": dict(veh="sedan", road=("iso", dict(cls="C", speed=20)),
+                           hidden={"asym": dict(ratio=(2.0, 3.5))}, noise=(0.02, "white")),
+    "asym_van_sweep": dict(veh="van", road=("sweep", dict(amp=0.02, f0=0.5, f1=18.0, p=0.5)),
+                           hidden={"asym": dict(ratio=(2.0, 3.5))}, noise=(0.02, "pink")),
+    "cubic_city_iso": dict(veh="city", road=("iso", dict(cls="D", speed=15)),
+                           hidden={"cubic": dict(rel=(0.3, 0.6))}, noise=(0.02, "white")),
+    "cubic_truck_sweep": dict(veh="truck", road=("sweep", dict(amp=0.03, f0=0.5, f1=15.0, p=0.5)),
+                              hidden={"cubic": dict(rel=(0.3, 0.6))}, noise=(0.02, "brown")),
+    "lag_sedan_force": dict(veh="sedan", road=("iso", dict(cls="B", speed=20)), force=("random", dict(rms=700.0)),
+                            hidden={"lag": dict(tau=(0.02, 0.04))}, noise=(0.02, "white")),
+    "lag_suv_sweep": dict(veh="suv", road=("iso", dict(cls="A", speed=15)), force=("sweep", dict(amp=1500.0)),
+                          hidden={"lag": dict(tau=(0.015, 0.035))}, noise=(0.02, "pink")),
+    "liftoff_city_rough": dict(veh="city", road=("iso", dict(cls="E", speed=22)),
+                               hidden={"liftoff": dict(share=(0.03, 0.08))}, noise=(0.02, "white")),
+    "liftoff_sports_bumps": dict(veh="sports", road=("bumps", dict(speed=16, h=(0.04, 0.08), L=(0.3, 0.8))),
+                                 hidden={"liftoff": dict(share=(0.02, 0.05))}, noise=(0.02, "white")),
+    "heavier_sedan": dict(veh="sedan", road=("iso", dict(cls="C", speed=20)), hidden={"mass": dict(f=(1.2, 1.3))},
+                          noise=(0.02, "white")),
+    "lighter_suv_bumps": dict(veh="suv", road=("bumps", dict(speed=12, bg="B")),
+                              hidden={"mass": dict(f=(0.7, 0.8))}, noise=(0.02, "pink"), bias=(0.3, 0.0)),
+    "heavier_truck": dict(veh="truck", road=("iso", dict(cls="C", speed=18)), hidden={"mass": dict(f=(1.2, 1.3))},
+                          noise=(0.02, "brown")),
+    "two_coulomb_stops": dict(veh="sedan", road=("iso", dict(cls="D", speed=15)),
+                              hidden={"coulomb": dict(rel=(0.15, 0.25), law="stick"),
+                                      "stops": dict(q=(0.975, 0.99), sides="both")}, noise=(0.02, "white")),
+    "two_heavier_stops": dict(veh="suv", road=("iso", dict(cls="D", speed=18)),
+                              hidden={"mass": dict(f=(1.2, 1.3)), "stops": dict(q=(0.97, 0.985), sides="comp")},
+                              noise=(0.02, "pink")),
+    "two_asym_cubic": dict(veh="sports", road=("iso", dict(cls="D", speed=20)),
+                           hidden={"asym": dict(ratio=(2.0, 3.0)), "cubic": dict(rel=(0.3, 0.5))},
+                           noise=(0.02, "white")),
+    "two_lag_coulomb": dict(veh="sedan", road=("iso", dict(cls="C", speed=15)), force=("random", dict(rms=800.0)),
+                            hidden={"lag": dict(tau=(0.02, 0.035)), "coulomb": dict(rel=(0.15, 0.3), law="stick")},
+                            noise=(0.02, "white")),
+    "two_heavier_cubic": dict(veh="city", road=("iso", dict(cls="D", speed=15)),
+                              hidden={"mass": dict(f=(1.2, 1.3)), "cubic": dict(rel=(0.3, 0.5))},
+                              noise=(0.02, "white")),
+    "quad_van_iso": dict(veh="van", road=("iso", dict(cls="D", speed=25)), hidden={"quad": dict(rel=(0.3, 0.5))},
+                         noise=(0.02, "white")),
+}
+
+
+def build(name: str, seed: int = 0, duration: float = 8.0, fs: float = 1000.0):
+    """One record: (clean+noisy data dict, model dict, hidden set, truth values)."""
+    spec = RECORDS[name]
+    rng = np.random.default_rng([seed, sum(map(ord, name))])
+    veh = dict(bt.VEHICLES[spec["veh"]])
+    road = _road(rng, spec["road"][0], duration, **spec["road"][1])
+    fk, fkw = spec.get("force", (None, {}))
+    force = _force(rng, fk, duration, **fkw)
+    hid_spec = spec["hidden"]
+    # the linear car's response sets effect strengths drawn "relative" to it
+    lin = bt.simulate(veh, {}, road, force, duration, fs)
+    s, v = lin["susp_travel"], np.gradient(lin["susp_travel"], 1 / fs)
+    u = lambda lo_hi: float(rng.uniform(*lo_hi))  # noqa: E731
+    hidden, truth = {}, {}
+    for key, p in hid_spec.items():
+        if key == "coulomb":
+            F = u(p["rel"]) * veh["damping"] * float(np.std(v))
+            hidden[key] = dict(force=F, v_eps=p.get("v_eps", 0.001))
+            truth["coulomb_friction.force"] = F
+        elif key == "stops":
+            qq = u(p["q"])
+            g_c = float(np.quantile(-s, qq))
+            g_e = float(np.quantile(s, qq)) if p["sides"] == "both" else None
+            ks = u((2.0, 5.0)) * veh["spring_stiffness"]
+            cs = 0.3 * veh["damping"] if p.get("damped") else 0.0
+            hidden[key] = dict(gap_c=g_c, gap_e=g_e, k=ks, c=cs)
+            truth.update({"bump_stop.gap_compression": g_c, "bump_stop.stiffness": ks})
+            if g_e is not None:
+                truth["bump_stop.gap_extension"] = g_e
+        elif key == "asym":
+            r = u(p["ratio"])
+            c0 = veh["damping"]
+            c_comp, c_reb = 2 * c0 / (1 + r), 2 * c0 * r / (1 + r)  # the same mean, rebound r× compression
+            hidden[key] = dict(c_comp=c_comp, c_reb=c_reb)
+            truth.update({"total_c_comp": c_comp, "total_c_reb": c_reb})
+        elif key == "cubic":
+            srms = float(np.std(s))
+            k3 = u(p["rel"]) * veh["spring_stiffness"] / srms ** 2 / 3.0  # k3·s³ ≈ rel/3 of k·s at s_rms... at 1.7 s_rms: rel
+            hidden[key] = dict(k3=k3)
+            truth["cubic_stiffness.k3"] = k3
+        elif key == "quad":
+            vr = float(np.std(v))
+            cv = u(p["rel"]) * veh["damping"] / vr
+            hidden[key] = dict(c_v=cv)
+            truth["quadratic_damping.c_v"] = cv
+        elif key == "lag":
+            tau = u(p["tau"])
+            hidden[key] = dict(tau=tau)
+            truth["actuator.time_constant"] = tau
+        elif key == "mass":
+            m = u(p["f"]) * veh["sprung_mass"]
+            hidden[key] = m
+            truth["sprung_mass"] = m
+        elif key == "liftoff":
+            hidden[key] = True
+    if "liftoff" in hid_spec:  # scale the road until the wheel leaves it on the wanted share of samples
+        want = u(hid_spec["liftoff"]["share"])
+        Ft = lin["tire_force_total"]
+        scale = 1.0
+        for _ in range(30):
+            if np.mean(Ft * 0 + (scale * (Ft - Ft.mean()) + Ft.mean()) <= 0) >= want:
+                break
+            scale *= 1.1
+        road = _Scaled(road, scale)
+        truth["road_scale"] = scale
+    d = bt.simulate(veh, hidden, road, force, duration, fs)
+    level, colour = spec["noise"]
+    n = len(d["time"])
+    colours = colour if isinstance(colour, (list, tuple)) else [colour] * 3
+    meas = {}
+    for ch, col in zip(OUT3, colours):
+        meas[ch] = d[ch] + level * np.std(d[ch]) * bt.noise(rng, n, col)
+    b_body, b_wheel = spec.get("bias", (0.0, 0.0))
+    meas["body_acc"] += b_body
+    meas["wheel_acc"] += b_wheel
+    meas["susp_travel"] += spec.get("travel_offset", 0.0)
+    params = dict(veh)
+    params["damping"] = {"value": veh["damping"], "free": True}
+    model = {"model": "quarter_car", "params": params, "position_zero": spec.get("zero", "nominal")}
+    expect = {NAMES[k] for k in hid_spec}
+    info = {k: d[k] for k in ("stick_share", "lift_share", "stop_share") if k in d}
+    data = {"time": d["time"], "road": d["road"], **({"force": d["force"]} if fk else {}), **meas}
+    return data, {c: d[c] for c in OUT3}, model, expect, truth, info, hidden
+
+
+class _Scaled:
+    def __init__(self, f, k):
+        self.f, self.k = f, k
+
+    def __call__(self, t):
+        r, rd = self.f(t)
+        return self.k * r, self.k * rd
+
+    def both(self, t):
+        r, rd = self.f.both(t)
+        return self.k * r, self.k * rd
+
+    def sample(self, t):
+        return self.k * self.f.sample(t)
+
+
+def write(name, folder: Path, seed=0):
+    """The record as the user gets it: DATA.csv and MODEL.yaml; returns paths and the scoring data."""
+    import pandas as pd
+
+    data, clean, model, expect, truth, info, hidden = build(name, seed)
+    folder.mkdir(parents=True, exist_ok=True)
+    csv = folder / f"{name}.csv"
+    pd.DataFrame(data).to_csv(csv, index=False, float_format="%.9g")
+    yml = folder / f"{name}.model.yaml"
+    yml.write_text(yaml.safe_dump(model, sort_keys=False))
+    return csv, yml, dict(data=data, clean=clean, expect=expect, truth=truth, info=info, hidden=hidden)
+
+
+def fitted_values(rep) -> dict:
+    """The fitted values to hold against the truth: effect parameters, the actuator's, the sprung mass and the
+    damping (the total compression / rebound rates of an asymmetric damper)."""
+    P = {}
+    for e in rep["effects"]:
+        for k, v in (e.get("parameters") or {}).items():
+            P[f"{e['name'].split('@')[0]}.{k}" if not e["name"].startswith("actuator") else f"actuator.{k}"] = v
+    fp = rep.get("calibration", {}).get("fitted") or {}
+    for k in ("sprung_mass", "damping"):
+        if k in fp:
+            P[k] = fp[k]
+    for k, v in fp.items():  # the effects' parameters by their model labels
+        if "." in k and k not in P:
+            P[k] = v
+    c = P.get("damping")
+    if c is not None:  # an asymmetric damper adds to the linear one: its total rates
+        P["total_c_comp"] = c + float(P.get("asymmetric_damping.c_comp", 0.0))
+        P["total_c_reb"] = c + float(P.get("asymmetric_damping.c_reb", 0.0))
+    return P
+
+
+def score(name, rep, sc) -> dict:
+    named = {e["name"] for e in rep["effects"]}
+    exp = sc["expect"]
+    a_, b_ = rep["split"]["test_samples"]
+    chans = list(rep["nrmse"]["after"]["test"])
+    std = {c: float(np.std(sc["data"][c])) for c in chans}
+    true_floor = {c: float(np.std(sc["data"][c][a_:b_] - sc["clean"][c][a_:b_]
+                                  - np.mean(sc["data"][c][a_:b_] - sc["clean"][c][a_:b_]))) / std[c] for c in chans}
+    agg = lambda d: float(np.sqrt(np.mean(np.square(list(d.values())))))  # noqa: E731
+    return {"record": name, "hidden": sorted(exp), "named": sorted(named), "exact": named == exp,
+            "false": sorted(named - exp), "missed": sorted(exp - named),
+            "before": agg(rep["nrmse"]["before"]["test"]), "after": agg(rep["nrmse"]["after"]["test"]),
+            "floor_true": agg(true_floor), "floor_est": agg({c: rep["noise_floor"][c]["nrmse"] for c in chans}),
+            "unexplained": rep.get("unexplained_x_floor"), "truth": sc["truth"], "fitted": fitted_values(rep),
+            "info": sc["info"], "verdict": rep.get("verdict", "")}
+
+
+def run_one(name, folder: Path, seed=0, log=None):
+    from suspension_sim.diagnose import diagnose
+
+    csv, yml, sc = write(name, folder, seed)
+    t0 = time.perf_counter()
+    rep = diagnose(str(csv), str(yml), str(folder / f"{name}.out"), confirm=False, plots=False, log=log)
+    r = score(name, rep, sc)
+    r["wall"] = time.perf_counter() - t0
+    return r
+
+
+def _fmt_vals(r):
+    out = []
+    for k, tv in r["truth"].items():
+        fv = r["fitted"].get(k)
+        if k == "road_scale":
+            continue
+        out.append(f"{k.split('.')[-1]} {tv:.4g}" + (f"→{fv:.4g}" if fv is not None else ""))
+    return "; ".join(out)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--only", default="")
+    ap.add_argument("--out", default="")
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--list", action="store_true")
+    ap.add_argument("--json", default="", help="append each row as a JSON line to this file")
+    a = ap.parse_args()
+    names = [n for n in (a.only.split(",") if a.only else RECORDS)]
+    if a.list:
+        for n in names:
+            _, _, _, exp, truth, info, _ = build(n, a.seed)
+            print(n, sorted(exp), {k: f"{v:.4g}" for k, v in truth.items()}, info)
+        return
+    folder = Path(a.out or tempfile.mkdtemp(prefix="blind_battery_"))
+    print(f"records in {folder}")
+    print("| record | hidden | named | exact | false | held-out before → after | floor true / est | "
+          "truth → fitted | time |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    n_exact = 0
+    for n in names:
+        r = run_one(n, folder, a.seed)
+        n_exact += r["exact"]
+        ux = f" (unexplained {r['unexplained']:.1f}×)" if r["unexplained"] else ""
+        print(f"| {n} | {', '.join(r['hidden']) or '—'} | {', '.join(r['named']) or '—'} | "
+              f"{'yes' if r['exact'] else '**no**'} | {', '.join(r['false']) or '—'} | "
+              f"{r['before']:.4f} → {r['after']:.4f}{ux} | {r['floor_true']:.4f} / {r['floor_est']:.4f} | "
+              f"{_fmt_vals(r)} | {r['wall']:.0f} s |", flush=True)
+        if a.json:
+            with open(a.json, "a") as fh:
+                fh.write(json.dumps({k: (v if not isinstance(v, set) else sorted(v)) for k, v in r.items()},
+                                    default=float) + "\n")
+    print(f"exact: {n_exact} / {len(names)}")
+
+
+if __name__ == "__main__":
+    main()
