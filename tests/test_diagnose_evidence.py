@@ -172,3 +172,66 @@ def test_the_top_band_floor_of_a_short_record_is_not_biased_low():
     rng = np.random.default_rng(0)
     est = [noise_floor(rng.standard_normal(2800), 500.0) for _ in range(200)]
     assert abs(np.mean(est) - 1) < 0.01, np.mean(est)
+
+
+# ------------------------------------------------------------------ the floor of a record with dry friction
+def _friction_record(seed, force, duration=5.0):
+    """A quarter car with Coulomb friction (truth.py: tanh(v/2 mm/s)), body acceleration and travel with 2 %
+    white noise; returns the truth dict."""
+    return truth.simulate_truth("quarter_car", duration, 1000, {"coulomb_friction": {"force": force}}, seed=seed,
+                                road_rms=0.01, noise=0.02, outputs=["body_acc", "susp_travel"])
+
+
+def test_the_record_floor_reads_the_noise_of_a_friction_record_where_the_top_band_reads_twice_it():
+    """Dry friction steps the body acceleration by 2·F_c/m at every travel-rate reversal: broadband content
+    that the top band of the PSD takes for noise (the matrix's coulomb_friction seed 0: 1.95× its noise, which
+    hid a fitted law 1.3× the noise).  The second differences' median ignores the few samples of each step."""
+    from suspension_sim.diagnose.select import difference_floor, noise_floor, record_floor
+
+    for seed, force in ((1, 150.0), (2, 250.0)):
+        d = _friction_record(seed, force)
+        for c in ("body_acc", "susp_travel"):
+            true = float(np.std(d[c] - d["_clean"][c]))
+            est = record_floor(d[c], 1000.0)[0] / true
+            assert 0.9 < est < 1.15, (seed, c, est)
+        top = noise_floor(d["body_acc"], 1000.0) / float(np.std(d["body_acc"] - d["_clean"]["body_acc"]))
+        assert top > 1.5, (seed, top)  # the former estimate fails the bound
+    # white noise: unbiased within its scatter; a quantised signal standing still (an encoder): the top band
+    rng = np.random.default_rng(3)
+    est = [difference_floor(rng.standard_normal(7000)) for _ in range(50)]
+    assert abs(np.mean(est) - 1) < 0.02, np.mean(est)
+    q = np.round(np.cumsum(rng.standard_normal(7000)) * 1e-3, 0)  # mostly constant steps of 1
+    assert record_floor(q, 1000.0)[2] == 0.0 and record_floor(q, 1000.0)[0] == noise_floor(q, 1000.0)
+
+
+def test_the_friction_law_is_fitted_at_a_step_that_leaves_its_error_below_the_noise(monkeypatch):
+    """The engine holds an effect's force over each physics step (first-order error); dry friction's fitted
+    tanh law is a stiff damper near zero rate.  At the 0.5 ms step the true law itself missed the truth by
+    more than the sensor noise (matrix coulomb_friction seed 0: 0.0311 against 0.0222), and the fit stopped at
+    0.0298; a model whose friction law is that stiff runs at the finer step the effect asks for."""
+    from suspension_sim.diagnose.calibrate import Problem
+
+    d = _friction_record(1, 150.0)
+    outs = ["body_acc", "susp_travel"]
+    rec = record_from_arrays("quarter_car", d["time"], {"road": d["road"]}, {k: d[k] for k in outs})
+    m = {"model": "quarter_car", "params": dict(truth.QC_NOMINAL),
+         "effects": [{"type": "coulomb_friction", "params": {"force": 150.0, "v_eps": 0.002, "law": "tanh"}}]}
+    spec = load_model(m)
+    noise = np.array([np.std(d[c] - d["_clean"][c]) for c in outs])
+    clean = np.column_stack([d["_clean"][c] for c in outs])
+    err = {}
+    from suspension_sim.effects.coulomb_friction import CoulombFriction
+
+    for declared in (True, False):
+        if not declared:  # the former engine: every model at the 0.5 ms step
+            monkeypatch.setattr(CoulombFriction, "fit_step", staticmethod(lambda params, mass: None))
+        prob = Problem(rec, spec)
+        assert abs(prob.step(spec) / (1.25e-4 if declared else 5e-4) - 1) < 1e-6
+        assert prob.step(load_model({"model": "quarter_car"})) == 5e-4
+        soft = spec.copy()  # a soft law (EMPS: 22 N over 0.84 mm/s on 91 kg) keeps the record's step
+        soft.P["coulomb_friction.force"] = 5.0
+        assert prob.step(soft) == 5e-4
+        e = prob.simulate(spec, spec.P) - clean
+        err[declared] = np.std(e[500:, 0]) / noise[0]  # body acceleration, after the start
+    assert err[True] < 0.4, err  # at the fit's step: well below the noise
+    assert err[False] > 0.9, err  # at the former step: as large as the noise

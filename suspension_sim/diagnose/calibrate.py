@@ -23,6 +23,7 @@ from .model import ModelSpec, is_position
 
 
 _ENGINE_LOCK = threading.Lock()
+MAX_REFINE = 8  # an effect's law may ask for at most this many times finer physics steps (Problem.step)
 
 
 class Problem:
@@ -73,7 +74,8 @@ class Problem:
     def engine(self, spec: ModelSpec) -> Engine:
         from .engine import structure_key
 
-        key = structure_key(self.kind, [(e.label, e.type, e.corners, e.fixed) for e in spec.effects])
+        dt = self.step(spec)
+        key = (structure_key(self.kind, [(e.label, e.type, e.corners, e.fixed) for e in spec.effects]), dt)
         eng = self._engines.get(key)
         if eng is None:
             with _ENGINE_LOCK:  # candidates are fitted in threads: one engine per structure all the same
@@ -81,8 +83,34 @@ class Problem:
                 if eng is None:
                     effects = [(e.label, e.type, e.corners, e.fixed) for e in spec.effects]
                     eng = self._engines[key] = Engine(self.kind, self.inputs, self.dt, effects, spec.P,
-                                                      lag=spec.lag, max_dt=self.max_dt, hold=self.rec.hold)
+                                                      lag=spec.lag, max_dt=dt, hold=self.rec.hold)
         return eng
+
+    def step(self, spec: ModelSpec) -> float:
+        """The physics step bound of a model: ``max_dt``, or finer when one of its effects says that its law
+        with the model's values needs it (``fit_step(params, lightest mass)``: an effect force is held over
+        each step, so its error is first order in the step; dry friction's fitted tanh law is a stiff damper
+        near zero rate).  The record's sample interval is divided by a power of two (at most
+        ``MAX_REFINE`` times more than ``max_dt`` gives), so that the few steps in use are cached engines;
+        within one fit the model, and so the step, stays the same."""
+        from ..registry import EFFECTS
+
+        masses = [v for n, v in spec.P.items() if "mass" in n and "." not in n and v > 0]
+        need = []
+        for e in spec.effects:
+            f = getattr(EFFECTS.get(e.type), "fit_step", None) if e.type in EFFECTS else None
+            if f is not None and masses:
+                pre = f"{e.label}."
+                h = f({n[len(pre):]: v for n, v in spec.P.items() if n.startswith(pre)}, min(masses))
+                if h:
+                    need.append(h)
+        if not need or min(need) >= self.max_dt:
+            return self.max_dt
+        sub0 = max(1, int(np.ceil(self.dt / self.max_dt - 1e-9)))
+        sub = sub0
+        while self.dt / sub > min(need) and sub < MAX_REFINE * sub0:
+            sub *= 2
+        return self.dt / sub * (1 + 1e-9)
 
     def simulate(self, spec: ModelSpec, P: dict, a: int = 0, b: int | None = None) -> np.ndarray:
         """Simulated output channels (N, n_ch) from sample 0 to b (the state is carried from the start).  A

@@ -67,6 +67,33 @@ def noise_floor(y: np.ndarray, fs_hz: float) -> float:
     return float(np.sqrt(np.median(p[band]) / (chi2.median(nu) / nu) * fs_hz / 2))
 
 
+def difference_floor(y: np.ndarray) -> float:
+    """Sensor-noise standard deviation from the second differences of the record, robustly: 1.4826·MAD of
+    Δ²y over √6 (white noise of std σ gives Δ²y of std √6·σ).  The second difference removes what is smooth
+    at the sample rate (1 kHz records of 1–20 Hz dynamics: a 10 Hz component keeps 0.4 % of its amplitude),
+    and the median ignores what is sharp but rare: the force step of dry friction at each travel-rate
+    reversal (a few samples per reversal) lifts the top band of a friction record's body acceleration, which
+    holds the step's broadband spectrum, to 1.96–2.41× its noise (the matrix's coulomb_friction and
+    two:coulomb+cubic records), while this reads 1.03–1.07×.  Where the record itself is rough at the sample
+    rate (the Silverbox's multisine, up to 0.7 of Nyquist: 11 mV against a top band of 0.07 mV) it reads
+    high; :meth:`Selector.floors` takes the lower of the two.  0 when the median is 0 (a quantised encoder
+    standing still)."""
+    d = np.diff(np.asarray(y, float), 2)
+    if len(d) < 16:
+        return 0.0
+    return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(6.0))
+
+
+def record_floor(y: np.ndarray, fs_hz: float) -> tuple[float, float, float]:
+    """(floor, top-band estimate, second-difference estimate) of one channel: the lower of
+    :func:`noise_floor` and :func:`difference_floor` (each reads high where the record holds what it does not
+    remove: broadband sparse steps for the first, content near Nyquist for the second; both read white noise
+    within a few per cent), the top band alone when the difference estimate is 0."""
+    top = noise_floor(y, fs_hz)
+    dif = difference_floor(y)
+    return (min(top, dif) if dif > 0 else top), top, dif
+
+
 NOISE_LIKE = 0.2  # a residual with at most this share of its power predictable (inputs, other channels) is noise
 
 
@@ -357,8 +384,10 @@ class Selector:
             if c in self.user_floors:
                 out[c] = {"value": float(self.user_floors[c]), "source": "user (repeatability)"}
             else:
-                v = noise_floor(self.prob.Y[:, i], self.rec.fs)
-                out[c] = {"value": v, "source": "estimated (PSD top band)", "top_band": v}
+                v, top, dif = record_floor(self.prob.Y[:, i], self.rec.fs)
+                out[c] = {"value": v, "source": "estimated (PSD top band)" if v == top else
+                          "estimated (second differences)", "top_band": v, "psd_top_band": top,
+                          "second_differences": dif}
             out[c]["nrmse"] = out[c]["value"] / float(self.prob.scale[i])
         return out
 
@@ -381,12 +410,13 @@ class Selector:
             std, predictable = est[i]
             if c in self.user_floors:
                 continue
-            # the top band of the record, not of the residual: the residual's reads closer to the noise where
-            # the record holds high-frequency force (compound: 0.0236 against 0.0199 and the record's 0.0258),
-            # but the record's over-read is what keeps a freed parameter from soaking up the discretisation
-            # error of a fitted friction law (matrix coulomb_friction seed 0: Coulomb alone reaches 0.0298
-            # against a true floor of 0.0222; with the residual's top band, 0.0241, parameter:tire_stiffness
-            # was named for 0.36 % of its value, 0.0298 → 0.0263).  Kept on the record until that error is gone
+            # the record's floor (:func:`record_floor`: the lower of its top band and its second differences),
+            # not the residual's: it does not depend on the model, so it reads the same while the model is
+            # wrong.  (The record's top band alone read a friction record's body acceleration 1.95× its noise,
+            # and that over-read had hidden the fitted friction law's discretisation error: matrix
+            # coulomb_friction seed 0 reached 0.0298 against a true floor of 0.0222 at the engine's 0.5 ms
+            # step, and a freed tire stiffness took 0.0298 → 0.0263 once the floor was right; the friction law
+            # is now fitted at the finer step it asks for, CoulombFriction.fit_step)
             top = float(floors[c].get("top_band", floors[c]["value"]))
             if predictable > NOISE_LIKE:
                 continue  # model error: the floor stays what it was
