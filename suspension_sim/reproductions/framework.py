@@ -261,7 +261,8 @@ def item_markdown(source: Source, item: Item, r: dict) -> str:
                    f"run at {steps_text(r.get('steps', []))}{extra}).", ""]
         md.append(md_table(["key number", "step", "half step", "change"],
                             [[k, fmt(a, 4), fmt(b, 4), f"{c * 100:.2f} %" + (
-                                f" ± {ses[k] * 100:.2f} % ({st[k]})" if k in ses else "")]
+                                f" ± {ses[k] * 100:.2f} % ({st[k]}); the two means differ by "
+                                f"{c / ses[k] if ses[k] > 0 else float('inf'):.2f} s.e." if k in ses else "")]
                              for k, a, b, c in conv]))
     elif item.converge is False:
         md += ["", "Step halving: not run for this item (see its notes)."]

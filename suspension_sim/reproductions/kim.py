@@ -15,6 +15,7 @@ from .framework import SOURCES, Claim, Item, ItemOutput, Source, fmt
 
 A2, A3 = 15.125e9, 5.176e5
 FIGS = {2: (10, True), 3: (10, False), 4: (1000, True), 5: (1000, False)}
+KD_START_ERROR = 0.05  # the k_d study starts from a2 −5 %, a3 +5 %
 
 
 def rms(x):
@@ -137,8 +138,9 @@ def kd_claim(ctx) -> ItemOutput:
     runs = {}
     for gain in (1e-10, 1e-8):
         for k_d in (10, 1000):
-            sc = ctx.scenario("kim_fig2", [f"controller.params.k_d={k_d}", f"controller.params.a2={A2 * 0.95}",
-                                           f"controller.params.a3={A3 * 1.05}"] +
+            sc = ctx.scenario("kim_fig2", [f"controller.params.k_d={k_d}",
+                                           f"controller.params.a2={A2 * (1 - KD_START_ERROR)}",
+                                           f"controller.params.a3={A3 * (1 + KD_START_ERROR)}"] +
                               [f"controller.params.gain_a{i}={gain}" for i in (1, 2, 3)])
             sc.variants = {}
             runs[(gain, k_d)] = sc
@@ -157,12 +159,14 @@ def kd_claim(ctx) -> ItemOutput:
         # (p_e, θ̃2) loop integrated over the run); if k_d acts only through it, the decay per unit of it is the same
         y2 = A2 * 3.35e-4 * ts.travel_rate.to_numpy()
         exc = g * float(np.sum(y2[1:] ** 2 * np.diff(t))) / 30.0
-        decay = float(np.log(0.05 / max(abs(e2[-1]), 1e-12)))
+        decay = float(np.log(KD_START_ERROR / max(abs(e2[-1]), 1e-12)))
         per_exc[(g, k)] = decay / exc if exc > 0 else float("nan")
         rows.append([f"{g:g}", str(k), f"{e2[np.searchsorted(t, 1.0)]:+.2%}", f"{e2[-1]:+.2%}",
                      f"{fe[0]:.0f} N ({fe[1]:.0%})", f"{vrel * 1000:.1f} mm/s", f"{exc:.3g}",
                      f"{per_exc[(g, k)]:.3g}"])
-        key[f"a2_error_end_g{g:g}_kd{k}"] = (abs(e2[-1]), 0.01)
+        # the error left of the 5 % start: near zero at the larger gain, where its own first-order step error
+        # (≈ 2e-5 absolute at 0.025 ms) is 10 % of it, so it is compared against the start error (the page)
+        key[f"a2_error_end_g{g:g}_kd{k}"] = (abs(e2[-1]), KD_START_ERROR)
         ax[0].plot(t, 100 * e2, styles[(g, k)], lw=1.0, label=f"Γ {g:g}, k_d {k}")
         ax[1].plot(t, 1000 * ts.travel_rate, styles[(g, k)], lw=0.5)
     ax[0].set_ylabel("â2/a2 − 1 (%)")

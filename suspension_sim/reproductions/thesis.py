@@ -391,7 +391,7 @@ def ch3_dirt(ctx) -> ItemOutput:
 
 # ---- Ch. 4 ------------------------------------------------------------------------------------------------
 
-CH4_REALISATIONS = 16  # perturbed runs of the chaotic variant mrac_kappa_q (ensemble mean and spread)
+CH4_REALISATIONS = 64  # perturbed runs of the chaotic variant mrac_kappa_q (ensemble mean and standard error)
 CH4_PRINTED_REALISATIONS = 4  # the same perturbations on the printed law (it is not chaotic: a check, not a mean)
 CH4_PERTURBATION = 1e-4  # realisation k: first sine amplitude × (1 + k·1e-4), i.e. +2e-6·k m
 
@@ -402,15 +402,20 @@ def _ch4_theta(ts):
 
 def _ch4_realisations(ctx, variant, n):
     """(level 30–40 s, mean force 30–40 s, RMS(body − ref) 1.5–20 s, peak |x| 20–60 s) of ``n`` runs of
-    ``variant`` whose first sine amplitude is scaled by 1 + k·CH4_PERTURBATION (k = 0 is the scenario run)."""
-    out = []
+    ``variant`` whose first sine amplitude is scaled by 1 + k·CH4_PERTURBATION (k = 0 is the scenario run).
+    The realisations differ only in the road, so they run as one ensemble (each car as it would alone)."""
+    scs = {}
     for k in range(n):
-        vv = ctx.variants("thesis_ch4_load_step", only=[variant])
-        sc = vv[variant]
+        sc = ctx.variants("thesis_ch4_load_step", only=[variant])[variant]
+        sc.sim.control_dt = sc.sim.control_dt / ctx.step_factor  # the thesis's control step (run_each)
         amp = list(sc.road.params["amplitudes"])
         amp[0] = amp[0] * (1 + k * CH4_PERTURBATION)
         sc.road.params["amplitudes"] = amp
-        t_ = run_each(ctx, vv, f"ch4 realisation {k} of {variant}")[variant].ts
+        scs[f"{variant}#{k}"] = sc
+    res = ctx.run(scs, label=f"ch4 {n} realisations of {variant}")
+    out = []
+    for k in range(n):
+        t_ = res[f"{variant}#{k}"].ts
         out.append((mean(t_, "body_z", 30, 40), mean(t_, "actuator_force", 30, 40),
                     rms((t_.body_z.to_numpy() - t_["ctrl.ref_x"].to_numpy())[win(t_, 1.5, 20)]),
                     float(np.max(np.abs(t_.body_z.to_numpy()[win(t_, 20, 60)])))))
@@ -444,21 +449,26 @@ def ch4_load_step(ctx) -> ItemOutput:
     def dU(k):  # mean |ΔU| per control step after 1.5 s (ringing at the Nyquist frequency would show here)
         return float(np.mean(np.abs(np.diff(ts[k].actuator_force.to_numpy()[win(ts[k], 1.5, 60)]))))
 
-    # the estimates from the wrong design: distance (scaled by the nominal |Θ| per row, bias row by 1000 N)
-    # between the wrong start's Θ and the right start's Θ at the same instant, with the bias row left out
+    # the estimates from the wrong design: distance (scaled by the nominal |Θ| per row, bias row by 1000 N) between
+    # the wrong start's Θ and the right start's Θ at the same instant, with the bias row left out
     th_r, th_w, th_off = _ch4_theta(m), _ch4_theta(ts["wrong_design"]), _ch4_theta(ts["wrong_design_off"])
     sc_ = np.abs(th_r[0])
     sc_[sc_ == 0] = 1000.0
     keep = np.ones(th_r.shape[1], bool)
     keep[-2] = False  # the bias (operating-point force) row
 
+    def at(a, t_):
+        return a[min(int(np.searchsorted(m.t.to_numpy(), t_)), len(a) - 1)]
+
+    def dist(a, b):
+        return float(np.linalg.norm(((a - b) / sc_)[keep]))
+
     def gap(a, b, t_):
-        i = min(int(np.searchsorted(m.t.to_numpy(), t_)), len(a) - 1)
-        return float(np.linalg.norm(((a[i] - b[i]) / sc_)[keep]))
+        return dist(at(a, t_), at(b, t_))
     gap_t = (0.0, 1.5, 5.0, 20.0, 40.0, 60.0)
     gaps = [gap(th_w, th_r, t_) for t_ in gap_t]
-    drift_r = [float(np.linalg.norm(((th_r[min(int(np.searchsorted(m.t.to_numpy(), t_)), len(th_r) - 1)] - th_r[0])
-                                     / sc_)[keep])) for t_ in gap_t]
+    drift_r = [dist(at(th_r, t_), th_r[0]) for t_ in gap_t]
+    travel_w = dist(at(th_w, 60.0), th_w[0])
     off_gap = gap(th_off, th_r, 0.0)
 
     # the chaotic variant: ensemble over perturbed runs (one run has no converged value); the printed law under
@@ -531,10 +541,10 @@ def ch4_load_step(ctx) -> ItemOutput:
               "Θ distance (scaled, bias row left out) to the right start's Θ at "
               + ", ".join(f"{t_:g}" for t_ in gap_t) + " s: " + ", ".join(f"{g:.2f}" for g in gaps)
               + f" (adaptation off stays {off_gap:.2f}); the right start's own Θ moves "
-              + ", ".join(f"{d_:.2f}" for d_ in drift_r) + f" from the nominal design; level "
-              f"{z['wrong_design'] * 100:.1f} cm (right start {z['mrac'] * 100:.1f}, adaptation off "
-              f"{z['wrong_design_off'] * 100:.1f}), following {fol['wrong_design'] * 1000:.1f} mm "
-              f"({fol['mrac'] * 1000:.1f}, {fol['wrong_design_off'] * 1000:.1f})",
+              + ", ".join(f"{d_:.2f}" for d_ in drift_r) + f" from the nominal design (the wrong start's "
+              f"{travel_w:.2f} from its own); level {z['wrong_design'] * 100:.1f} cm (right start "
+              f"{z['mrac'] * 100:.1f}, adaptation off {z['wrong_design_off'] * 100:.1f}), following "
+              f"{fol['wrong_design'] * 1000:.1f} mm ({fol['mrac'] * 1000:.1f}, {fol['wrong_design_off'] * 1000:.1f})",
               "partly" if gaps[-1] < 0.5 * gaps[0] else "not",
               "the wrong start's estimates merge with the right start's (the loop forgets its initial design), but "
               "neither settles: on the friction-locked body the data do not identify Θ"),
@@ -595,9 +605,16 @@ def ch4_load_step(ctx) -> ItemOutput:
            "mrac_follow": (fol["mrac"], 1e-3), "off_level": (z["mrac_off"], 0.01),
            "kappa_level": (z["mrac_kappa"], 0.01), "kappa_force": (F["mrac_kappa"], 10.0),
            "kappa_follow": (fol["mrac_kappa"], 1e-3), "wrong_level": (z["wrong_design"], 0.01),
-           "wrong_follow": (fol["wrong_design"], 1e-3), "wrong_theta_gap_60s": (gaps[-1], 0.05),
+           "wrong_follow": (fol["wrong_design"], 1e-3),
+           # the remaining Θ gap is the small difference of two Θ trajectories that each travel ≈ 5 (scaled) and
+           # converge at first order: compared against the initial gap, the scale of the claim (the fraction of
+           # the initial distance closed); each trajectory's travel is a key number against itself
+           "wrong_theta_gap_60s": (gaps[-1], gaps[0]), "wrong_theta_travel_60s": (travel_w, 0.05),
+           "right_theta_travel_60s": (drift_r[-1], 0.05),
            "drift_passive_level": (zd["drift_passive"], 0.01), "drift_mrac_level": (z["drift_mrac"], 0.01),
-           "q_ensemble_level": (eL[0], 0.01), "q_ensemble_force": (eF[0], 10.0)}
+           # the chaotic variant's ensemble means with their standard errors (a statistical estimate: framework)
+           "q_ensemble_level": (eL[0], 0.01, eL[1]), "q_ensemble_force": (eF[0], 10.0, eF[1]),
+           "q_ensemble_follow": (eFo[0], 1e-3, eFo[1])}
     notes = [HALF_NOTE,
              "Literal first: the scenario default `mrac` is the law as printed, the d-step-ahead control of Eq. 4.55 "
              "(κ = 1) with the RLS of Eq. 4.56 at Q = 0.  Eq. 4.56 prints a covariance addition 0 ≤ Q < ∞ whose value the "
@@ -609,7 +626,13 @@ def ch4_load_step(ctx) -> ItemOutput:
              f"(k = 0 … {CH4_REALISATIONS - 1}: ≤ {(CH4_REALISATIONS - 1) * CH4_PERTURBATION * 0.02 * 1e6:.0f} µm).  The "
              "printed law does not move under these perturbations (last column), the Q variant spreads over "
              "centimetres and bursts: its single runs have no converged value, and its ensemble means "
-             "(q_ensemble_*) are key numbers only to within their standard errors (see the page)."]
+             "(q_ensemble_*) carry their standard errors: they agree across the steps within them (the table gives the "
+             "difference in standard errors), but they are not known to 2 % (undecided; that would take ~10⁵ runs).",
+             "The wrong design's remaining Θ gap at 60 s is compared against the initial gap (the claim is the "
+             "fraction of the initial distance closed): it is the small difference of two Θ trajectories that each "
+             "travel ≈ 5 (scaled) and converge at first order (wrong/right_theta_travel_60s, each against itself).  "
+             "The wrong design's level and following are not converged: from 0.125 to 0.016 ms they wander by 1.7 mm "
+             "and 2.3 mm (3 % and 8 %; the right start's converge), see the page."]
     return ItemOutput(claims, key=key, figure=fig, notes=notes, tables=tables)
 
 
@@ -681,7 +704,13 @@ def ch4_dirt(ctx) -> ItemOutput:
            "mrac_ratio_res": (r["mrac"][1], 0.1), "mrac_ratio_hi": (r["mrac"][3], 0.1),
            "mrac_level": (lvl["mrac"], 0.01), "mrac_acc": (acc["mrac"], 0.01),
            "nodelay_ratio_res": (r["mrac_no_delay"][1], 0.1), "nodelay_kappa_q_ratio_res": (r["mrac_kappa_q_no_delay"][1], 0.1)}
-    return ItemOutput(claims, key=key, figure=fig, notes=[HALF_NOTE])
+    notes = [HALF_NOTE,
+             "Known not converged: the printed law without the delay (`mrac_no_delay`).  Its 0.5–1 Hz ratio is 0.48, "
+             "0.55, 0.40, 0.39 at 0.125, 0.0625, 0.031, 0.016 ms and its other bands move 5–40 % between the two finest "
+             "steps; it is not chaotic (sprung mass × (1 + 1e-3): the ratio moves 0.04 %), its estimates drift with "
+             "the step (bias estimate at 60 s −839, −590, −305, −193 N).  What the verdict rests on holds at every "
+             "step: closer to the reference than passive (ratios ≈ 50–60) in every band from 0.5 to 4 Hz."]
+    return ItemOutput(claims, key=key, figure=fig, notes=notes)
 
 
 # ---- Ch. 7 ------------------------------------------------------------------------------------------------
