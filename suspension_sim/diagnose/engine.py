@@ -290,9 +290,18 @@ class Engine:
                 new = 0.5 * new  # MuJoCo holds half of each linear damper with the trapezoidal scheme
             flat[idx] = new
         self._sag = None
+        D["q0"] = None
         if mass_changed:
             mujoco.mj_setConst(m, D["scratch"])
             D["const_dirty"] = True
+            if self.kind != "sdof" and not np.any(m.tendon_stiffness <= 1.5 * K_EPS):
+                # a car with real springs sags where its springs (and effects) carry the new weight: the run
+                # starts there (_static_state), not re-levelled, so an effect sees the travel from the nominal
+                # ride height, where its law is written (a stop's gap, a cubic spring's zero are places on the
+                # car; re-levelled, a heavier car's stop moved with the sag: the blind battery's loaded SUV
+                # rested on its 36 mm stop after a 38 mm sag and was fitted a 0 mm stop with a freed spring)
+                D["q0"] = "static"
+                return self._linear_rates(sim)
             # a changed mass is not re-levelled in the world (the car sags), but a run starting at rest at the
             # old ride height would drop at t = 0 and ring: the model is re-levelled (q = 0 is its new
             # equilibrium) and the static sag K⁻¹·Δg is added to the position outputs instead
@@ -323,7 +332,12 @@ class Engine:
             self._sag = {"body": q[P.body_v], "wheel": q[P.wheel_v] if P.has_tire else None,
                          "travel": dl[P.susp_t],
                          "tire": (-m.tendon_stiffness[P.tire_t] * dl[P.tire_t]) if P.has_tire else None}
-        # the plant's and the simulation's copies of the linear rates
+        self._linear_rates(sim)
+
+    @staticmethod
+    def _linear_rates(sim):
+        """The plant's and the simulation's copies of the linear rates, from the model's fields."""
+        P, m = sim.plant, sim.plant.model
         f = 2.0 if sim.trap else 1.0
         P.susp_c = f * m.tendon_damping[P.susp_t]
         if P.has_tire:
@@ -431,6 +445,7 @@ class Engine:
         sim = self._sim(psets, n_samples)
         self._write_vehicle(sim, psets)
         self._components(sim, psets)
+        self._static_state(sim)
         self._initial_state(sim, psets)
         res = sim.run()
         src = res[0].__dict__.get("_src")
@@ -468,6 +483,66 @@ class Engine:
         if L < n_samples:
             out[:, L:, :] = out[:, L - 1:L, :]
         return out
+
+    def _static_state(self, sim):
+        """A car whose mass changed (not re-levelled, :meth:`_write_vehicle`) starts at rest where its springs and
+        suspension effects carry the changed weight: −K·q + Δg + J_sᵀ·F(J_s·q) = 0 over the free dofs (Newton,
+        the effects' force slopes by finite differences); stateless laws are zero at zero travel, so with no
+        effect (or sizes at zero) this is the linear sag K⁻¹·Δg."""
+        D = sim._diag
+        if D.get("q0") is None:
+            return
+        P, m = sim.plant, sim.plant.model
+        J = D["J"]
+        free = P.free_v
+        dg = (_gravity(m, D["scratch"]) - D["g0"])[free]
+        K = ((J.T * m.tendon_stiffness) @ J)[np.ix_(free, free)]
+        Js = J[P.susp_t.reshape(-1)][:, free]  # (n·nc, nfree): travel rows, car-major
+        # stateless laws only (a hysteresis or backlash element has no static force defined by the travel alone)
+        eff = [(e, sel) for e, sel in sim.effects if getattr(e, "target", "suspension") == "suspension"
+               and type(e).__name__ not in ("Hysteresis", "Backlash")]
+        n, nc = P.n, P.nc
+
+        def force(q):
+            s = (Js @ q).reshape(n, nc)
+            F = np.zeros((n, nc))
+            for e, sel in eff:
+                F[:, sel] += np.asarray(e.force(s[:, sel], np.zeros_like(s[:, sel]), 0.0, sim.plant.dt), float)
+                e.reset()
+            return F.reshape(-1)
+
+        q = q_lin = np.linalg.solve(K, dg)
+        if eff:
+            h = 1e-7
+            for _ in range(60):
+                F = force(q)
+                G = -K @ q + dg + Js.T @ F
+                dF = (force(q + np.linalg.lstsq(Js, np.full(Js.shape[0], h), rcond=None)[0]) - F) / h
+                H = -K + (Js.T * dF) @ Js
+                step = np.linalg.solve(H, -G)
+                q = q + step
+                if not np.all(np.isfinite(q)):
+                    break
+                if np.max(np.abs(step)) < 1e-12:
+                    break
+            if not np.all(np.isfinite(q)):
+                q = q_lin
+        q0 = np.zeros(m.nv)
+        q0[free] = q
+        D["q0"] = "static"
+        D["q0_value"] = q0
+        if "reset_static" not in sim.__dict__:
+            qadr = m.jnt_qposadr[m.dof_jntid[np.arange(m.nv)]]
+            base_reset = sim.reset
+
+            def reset(sim=sim, qadr=qadr, base_reset=base_reset):
+                base_reset()
+                q0 = sim._diag.get("q0_value") if sim._diag.get("q0") is not None else None
+                if q0 is not None:
+                    sim.plant.data.qpos[qadr] += q0
+
+            sim.reset = reset
+            sim.reset_static = True
 
     def _initial_state(self, sim, psets):
         """SDOF: start each car at ``init.pos`` (the position output) and ``init.vel`` instead of at rest."""
