@@ -180,7 +180,7 @@ def case_suv_null(seed):
 
 # ---- full car: the project's own plant and laws (truth.simulate_truth_full), four corners, left/right roads ----
 FC_KNOWN = {**truth.FC_NOMINAL, "damping_front": "free", "damping_rear": "free"}
-FC_OFFSETS = {"body_acc_fl": 0.2, "body_acc_rr": -0.15, "roll_rate": 0.003}  # accelerometer and gyro biases
+FC_OFFSETS = {"body_acc_fl": 0.2, "roll_rate": 0.003}  # an accelerometer bias (m/s²) and a gyro bias (rad/s)
 
 
 def _fc(d):
