@@ -82,6 +82,20 @@ def test_a_mean_whose_spread_spans_the_bound_is_undecided_not_converged():
         assert f"Step halving: {'NOT converged' if status == 'not converged' else status}" in md
         assert f"({status})" in md
 
+def test_step_halving_line_names_the_key_that_decides_it():
+    """The summary names the worst key by status first: an undecided ensemble mean that moved 27 % (Ch. 4's
+    Q ensemble) must not hide a deterministic key that moved 2.5 % and is not converged (the old rule, the largest
+    change, named the mean)."""
+    def run(ctx):
+        return fw.ItemOutput([], key={"mean": (1.0 + 0.54 * (ctx.step_factor == 0.5), 0.01, 1.0),
+                                      "level": (1.0 + 0.05 * ctx.step_factor, 0.01)})
+
+    r = fw.run_item(fw.Item("x", "x", run), converge=True)
+    line = fw.verdict_row(r)[1]
+    assert line.startswith("NOT converged (worst level:"), line
+    assert fw.status_summary([("a", 0.3, "undecided"), ("b", 0.01, "converged")]) == "undecided (worst a: 30.0 %)"
+
+
 def test_half_step_run_halves_the_step_of_every_variant():
     """The convergence run uses exactly half the scenario's physics and control step, variants included."""
     def item(ctx):
