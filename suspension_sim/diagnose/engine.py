@@ -498,9 +498,9 @@ class Engine:
         dg = (_gravity(m, D["scratch"]) - D["g0"])[free]
         K = ((J.T * m.tendon_stiffness) @ J)[np.ix_(free, free)]
         Js = J[P.susp_t.reshape(-1)][:, free]  # (n·nc, nfree): travel rows, car-major
-        # stateless laws only (a hysteresis or backlash element has no static force defined by the travel alone)
+        # laws whose force at rest is defined by the travel alone (Effect.static_law: not hysteresis or backlash)
         eff = [(e, sel) for e, sel in sim.effects if getattr(e, "target", "suspension") == "suspension"
-               and type(e).__name__ not in ("Hysteresis", "Backlash")]
+               and getattr(e, "static_law", True)]
         n, nc = P.n, P.nc
 
         def force(q):

@@ -42,6 +42,7 @@ class Backlash(Effect):
     """
 
     Params = BacklashParams
+    static_law = False  # path dependent: no force at rest defined by the travel alone
     # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
     free_parameters = {"stiffness": FreeParameter("max(k, F/s)", init=0.2),
                        "play": FreeParameter("s", init=0.1, size=False)}

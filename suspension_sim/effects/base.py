@@ -51,6 +51,10 @@ class Effect(KernelState):
     target = "suspension"  # or "tire"
     Params = NoParams
     signature = ""  # what the effect looks like in data
+    # whether the force at rest is a function of the travel alone (diagnose's static sag of a car whose mass
+    # changed solves for it); False for a path-dependent law (hysteresis, backlash), whose force at rest
+    # depends on how the travel got there
+    static_law = True
 
     @property
     def label(self) -> str:

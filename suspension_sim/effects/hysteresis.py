@@ -61,6 +61,7 @@ class Hysteresis(Effect):
     """
 
     Params = HysteresisParams
+    static_law = False  # path dependent: no force at rest defined by the travel alone
     # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
     free_parameters = {"force": FreeParameter("F", init=0.05),
                        "x_y": FreeParameter("s", init=0.2, lo=1e-3, size=False)}
