@@ -712,6 +712,10 @@ class Selector:
             # everywhere too, as a weaker effect on all four); the others first, in one batch
             results, this_round = [], {}
             stage = [c for c in lib if c.parent is None]
+            # a candidate that did not lower the training BIC last round is pruned, unless the current model is
+            # still far above the floor: an effect masked by another (friction fitted to zero while a missing
+            # lag dominated; the blind battery's two_lag_coulomb) gets another chance once that one is in
+            far_now = float(np.sqrt(np.mean(e_cur ** 2))) > self.far * float(np.sqrt(np.mean(floor_n ** 2)))
             while stage:
                 jobs, order = [], []
                 for cand in stage:
@@ -719,7 +723,8 @@ class Selector:
                         continue
                     ok, why = cand.applies(current_spec, sc)
                     pt = prev.get(cand.name)
-                    if ok and pt is not None and pt.applicable and np.isfinite(pt.d_bic) and pt.d_bic >= 0:
+                    if (ok and not far_now and pt is not None and pt.applicable and np.isfinite(pt.d_bic)
+                            and pt.d_bic >= 0):
                         ok, why = False, f"pruned: no training improvement in round {rnd - 1} (ΔBIC {pt.d_bic:+.1f})"
                     if not ok:
                         order.append(Trial(cand.name, rnd, False, why))
