@@ -263,6 +263,15 @@ POOL_SCRIPT = textwrap.dedent("""
 """)
 
 
+def _damping_sweep(tmp_path, n: int, duration: float) -> Path:
+    """``sweep.yaml`` in tmp_path: n runs of the sweep scenario (``duration`` s each) over the damping."""
+    _write(tmp_path, {**SWEEP_SCENARIO, "sim": {"duration": duration}}, "base.yaml")
+    sw = tmp_path / "sweep.yaml"
+    sw.write_text(yaml.safe_dump({"base": "base.yaml", "grid": {"vehicle.params.damping": [800 + 50 * i for i in range(n)]},
+                                  "ensemble_size": 1}))
+    return sw
+
+
 def _sigint_default():
     """The child starts with SIGINT at its default (Python's KeyboardInterrupt): a test run launched in the
     background (``cmd &`` in a script, nohup) ignores SIGINT, and the child would inherit that."""
@@ -382,11 +391,8 @@ def test_ctrl_c_inside_a_pool_lock_still_ends_the_batch(tmp_path, mode):
 def test_batch_ctrl_c_prints_one_line_and_keeps_a_readable_summary(tmp_path):
     """Ctrl-C in the middle of a batch on two workers: exit 130 with one line (no traceback), no worker left,
     and summary.parquet holds the runs finished so far (those a resumed batch skips)."""
-    _write(tmp_path, {**SWEEP_SCENARIO, "sim": {"duration": 100.0}}, "base.yaml")
-    sw = tmp_path / "sweep.yaml"
     n = 24
-    sw.write_text(yaml.safe_dump({"base": "base.yaml", "grid": {"vehicle.params.damping": [800 + 50 * i for i in range(n)]},
-                                  "ensemble_size": 1}))
+    sw = _damping_sweep(tmp_path, n, 100.0)
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-m", "suspension_sim.cli", "batch", str(sw), "--out", str(out), "-q",
                              "--workers", "2"], cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
@@ -468,11 +474,8 @@ def test_batch_killed_halfway_resumes_without_losing_or_redoing_runs(tmp_path):
 
     # 5 s runs (not 20): resuming does not depend on the length of a run, and 37 runs still to do after the
     # third part leave the kill seconds of margin
-    _write(tmp_path, {**SWEEP_SCENARIO, "sim": {"duration": 5.0}}, "base.yaml")
-    sw = tmp_path / "sweep.yaml"
     n = 40
-    sw.write_text(yaml.safe_dump({"base": "base.yaml", "grid": {"vehicle.params.damping": [800 + 50 * i for i in range(n)]},
-                                  "ensemble_size": 1}))
+    sw = _damping_sweep(tmp_path, n, 5.0)
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-m", "suspension_sim.cli", "batch", str(sw), "--out", str(out), "-q",
                              "--workers", "1"], cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
