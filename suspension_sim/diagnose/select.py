@@ -715,7 +715,11 @@ class Selector:
             # a candidate that did not lower the training BIC last round is pruned, unless the current model is
             # still far above the floor: an effect masked by another (friction fitted to zero while a missing
             # lag dominated; the blind battery's two_lag_coulomb) gets another chance once that one is in
-            far_now = float(np.sqrt(np.mean(e_cur ** 2))) > self.far * float(np.sqrt(np.mean(floor_n ** 2)))
+            # (the current model's held-out error and the floor stay the same through the round: the pair beam
+            # below asks the same question)
+            Ecur = float(np.sqrt(np.mean(e_cur ** 2)))
+            fl = float(np.sqrt(np.mean(floor_n ** 2)))
+            far_now = Ecur > self.far * fl
             while stage:
                 jobs, order = [], []
                 for cand in stage:
@@ -747,9 +751,7 @@ class Selector:
                         this_round[cand.name] = trials[-1]
                         done.add(cand.name)  # its own placements are not tried either
             kept = [r for r in results if r[2].kept]
-            Ecur = float(np.sqrt(np.mean(e_cur ** 2)))
-            fl = float(np.sqrt(np.mean(floor_n ** 2)))
-            if not kept and Ecur > self.far * fl and self.max_effects - len(added) >= 2:
+            if not kept and far_now and self.max_effects - len(added) >= 2:
                 # beam over pairs: the best candidates by training cost, two at a time (:meth:`_pairs`)
                 ok_res, pairs = self._pairs(results, tried_pairs)
                 self.log(f"  no single candidate kept at {Ecur / max(fl, 1e-12):.1f}× the noise floor: "
