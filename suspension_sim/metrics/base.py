@@ -192,8 +192,7 @@ class Reductions:
     def max(self, key, x: np.ndarray) -> None:
         if x.shape[1] == 0:
             return
-        m = np.max(x, axis=1)
-        self.v[key] = m if key not in self.v else np.maximum(self.v[key], m)
+        self.max_value(key, np.max(x, axis=1))
 
     def count(self, key, mask: np.ndarray) -> None:
         self.sum_value(key, np.count_nonzero(mask, axis=1).astype(float))
