@@ -181,6 +181,7 @@ class System:
                                 "sensors and timing", source=source)
         self.scenarios = list(scenarios)
         self.source = source
+        self.initial_q = self.initial_v = None  # the run's initial state off rest at q = 0 (see reset)
         sc0 = self.scenarios[0]
         sim = sc0.sim
         self.dt, self.control_dt, self.log_dt, self.duration = sim.dt, sim.control_dt, sim.log_dt, sim.duration
@@ -504,6 +505,14 @@ class System:
         # instant (before the first: the initial ones) and the means
         self.v_ctrl = self.plant.data.qvel.copy()
         self.acc_mean = np.zeros(self.plant.model.nv)
+        # the run's initial state, when it is not rest at the levelled ride height (q = 0, v = 0): positions
+        # added to q = 0 and the velocities, per dof (nv); set by the build (a car heavier than it was levelled
+        # with: :mod:`.statics`) or by the discrepancy search's engine before a run
+        d, m = self.plant.data, self.plant.model
+        if self.initial_q is not None:
+            d.qpos[m.jnt_qposadr[m.dof_jntid]] += self.initial_q
+        if self.initial_v is not None:
+            d.qvel[:] = self.initial_v
 
     def sensor_rng(self, j: int, current=None) -> "PerCarRNG":
         """The noise generator of sensor ``j`` at the start of a run: one stream per car, seeded by the car's

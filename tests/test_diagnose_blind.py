@@ -87,3 +87,22 @@ def test_a_loaded_car_with_a_progressive_spring_is_reproduced_by_the_true_model(
     assert 3 * k3 * s_eq ** 2 > 0.2 * CAR["spring_stiffness"]
     err = _engine_error(t, r, out, [{"type": "cubic_stiffness", "params": {"k3": k3}}], m)
     assert max(err.values()) < 0.005, err
+
+
+def test_every_engine_of_a_record_levels_the_car_at_the_nominal_masses():
+    """A record's engines are built per model structure, the first time a model of that structure is simulated.
+    In the search that model often carries fitted masses (a candidate after a round that fitted the mass, or a
+    stiff law's finer step): the car was then levelled with the fitted masses, so that structure's models showed
+    no sag, and the true model missed this loaded car by 0.55 / 0.39 / 2.67 NRMSE (body acc / wheel acc /
+    travel).  The car is levelled with the masses of the model the record was prepared with (the nominal ride height), whichever model comes first."""
+    m = 1.25 * CAR["sprung_mass"]
+    t, r, out, _ = _loaded_car(m, 0.030, 150000.0, 0.0, duration=1.5)
+    rec = record_from_arrays("quarter_car", t, {"road": r}, out)
+    spec = load_model({"model": "quarter_car", "params": dict(CAR), "effects": [
+        {"type": "bump_stop", "params": {"gap_compression": 0.030, "gap_extension": 1.0, "stiffness": 150000.0}}]})
+    fitted = spec.copy()
+    fitted.P["sprung_mass"] = m
+    prob = Problem(rec, spec)
+    y = prob.simulate(fitted, fitted.P)  # the first model this record simulates carries the fitted mass
+    err = {c: float(np.sqrt(np.mean((y[:, i] - out[c]) ** 2)) / np.std(out[c])) for i, c in enumerate(prob.channels)}
+    assert max(err.values()) < 0.005, err

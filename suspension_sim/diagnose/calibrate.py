@@ -49,6 +49,9 @@ class Problem:
         if spec is not None:
             self.set_offsets(spec)
         self._engines: dict = {}
+        # the nominal model's masses: every engine levels the car with them (the ride height where position
+        # sensors zeroed at the nominal ride height read zero), not with those of the model that first needs it
+        self.level = None if spec is None else dict(spec.P)
 
     @staticmethod
     def omega_max(spec: ModelSpec) -> float:
@@ -82,8 +85,11 @@ class Problem:
                 eng = self._engines.get(key)
                 if eng is None:
                     effects = [(e.label, e.type, e.corners, e.fixed) for e in spec.effects]
+                    if self.level is None:
+                        self.level = dict(spec.P)
                     eng = self._engines[key] = Engine(self.kind, self.inputs, self.dt, effects, spec.P,
-                                                      lag=spec.lag, max_dt=dt, hold=self.rec.hold)
+                                                      lag=spec.lag, max_dt=dt, hold=self.rec.hold,
+                                                      level=self.level)
         return eng
 
     def step(self, spec: ModelSpec) -> float:

@@ -36,6 +36,8 @@ from suspension_sim.controllers.base import Controller
 
 from ..errors import SimulationDiverged
 from ..registry import EFFECTS, VEHICLES
+from ..statics import gravity, rest_offset, tendon_jacobian
+from ..vehicles.base import mass_params
 
 MAX_DT = 5e-4  # physics step bound (s): the record's sample interval is divided into equal steps below this
 BIG = 1e6  # output value of a diverged parameter set
@@ -136,10 +138,12 @@ class Engine:
     ``vehicle_base``: the vehicle parameters the plant is built with (writable ones are overwritten per
     car).  :meth:`run` takes a list of parameter dicts (names: vehicle parameters, ``<label>.<param>``,
     ``actuator.time_constant``, ``input.gain``, ``input.offset``, ``input.delay``) and returns
-    (n_sets, n_samples, n_channels) in the order of :attr:`channels`."""
+    (n_sets, n_samples, n_channels) in the order of :attr:`channels`.  ``level``: the parameters whose masses
+    and inertias the car is levelled with (its ride height, where the position sensors read zero; default
+    ``vehicle_base``): a set whose masses differ sags from there."""
 
     def __init__(self, kind: str, inputs: dict, dt_rec: float, effects: list, vehicle_base: dict,
-                 lag: bool = False, max_dt: float = MAX_DT, hold: str = "linear"):
+                 lag: bool = False, max_dt: float = MAX_DT, hold: str = "linear", level: dict | None = None):
         self.kind = kind
         self.inputs = inputs
         self.dt_rec = float(dt_rec)
@@ -148,6 +152,7 @@ class Engine:
         # in a parameter set's model runs with its size parameters at zero), plus the model's other effects
         self.slots = _slots(kind, self.effects)
         self.vehicle_base = dict(vehicle_base)
+        self.level = dict(vehicle_base if level is None else level)
         self.lag = lag
         self.hold = hold  # the inputs between their samples (datafile.reconstruct)
         self._held: dict = {}
@@ -229,6 +234,9 @@ class Engine:
             geo.append(tuple(sorted((k, float(v)) for k, v in P.items()
                                     if k in self.vcls.Params.model_fields and k not in self.writable)))
         base = {k: v for k, v in self.vehicle_base.items() if k in self.vcls.Params.model_fields}
+        # built (its springs' preloads set) with the masses it is levelled with: a set's own masses are written
+        # per run (_write_vehicle), so a set heavier than the level sags, whichever set first built the engine
+        base.update({k: self.level[k] for k in mass_params(self.vcls) if k in self.level})
         key = (len(psets), n_samples, tuple(geo))
         sims = self._sims
         hit = sims.get(key)
@@ -251,7 +259,7 @@ class Engine:
             "scratch": mujoco.MjData(m),
             "n_samples": n_samples,
         }
-        sim._diag["J"], sim._diag["g0"] = _tendon_jacobian(m), _gravity(m, sim._diag["scratch"])
+        sim._diag["J"], sim._diag["g0"] = tendon_jacobian(m), gravity(m, sim._diag["scratch"])
         sims[key] = sim
         return sim
 
@@ -306,7 +314,7 @@ class Engine:
             # old ride height would drop at t = 0 and ring: the model is re-levelled (q = 0 is its new
             # equilibrium) and the static sag K⁻¹·Δg is added to the position outputs instead
             J = D["J"]
-            dg = _gravity(m, D["scratch"]) - D["g0"]
+            dg = gravity(m, D["scratch"]) - D["g0"]
             free = P.free_v
             K = (J.T * m.tendon_stiffness) @ J
             q = np.zeros(m.nv)
@@ -486,88 +494,31 @@ class Engine:
 
     def _static_state(self, sim):
         """A car whose mass changed (not re-levelled, :meth:`_write_vehicle`) starts at rest where its springs and
-        suspension effects carry the changed weight: −K·q + Δg + J_sᵀ·F(J_s·q) = 0 over the free dofs (Newton,
-        the effects' force slopes by finite differences); stateless laws are zero at zero travel, so with no
-        effect (or sizes at zero) this is the linear sag K⁻¹·Δg."""
+        suspension effects carry the changed weight (:func:`suspension_sim.statics.rest_offset`, the function
+        ``suspension-sim run`` starts a car heavier than its ``levelled_with`` at)."""
         D = sim._diag
         if D.get("q0") is None:
+            sim.initial_q = None
             return
-        P, m = sim.plant, sim.plant.model
-        J = D["J"]
-        free = P.free_v
-        dg = (_gravity(m, D["scratch"]) - D["g0"])[free]
-        K = ((J.T * m.tendon_stiffness) @ J)[np.ix_(free, free)]
-        Js = J[P.susp_t.reshape(-1)][:, free]  # (n·nc, nfree): travel rows, car-major
-        # laws whose force at rest is defined by the travel alone (Effect.static_law: not hysteresis or backlash)
-        eff = [(e, sel) for e, sel in sim.effects if getattr(e, "target", "suspension") == "suspension"
-               and getattr(e, "static_law", True)]
-        n, nc = P.n, P.nc
-
-        def force(q):
-            s = (Js @ q).reshape(n, nc)
-            F = np.zeros((n, nc))
-            for e, sel in eff:
-                F[:, sel] += np.asarray(e.force(s[:, sel], np.zeros_like(s[:, sel]), 0.0, sim.plant.dt), float)
-                e.reset()
-            return F.reshape(-1)
-
-        q = q_lin = np.linalg.solve(K, dg)
-        if eff:
-            h = 1e-7
-            for _ in range(60):
-                F = force(q)
-                G = -K @ q + dg + Js.T @ F
-                dF = (force(q + np.linalg.lstsq(Js, np.full(Js.shape[0], h), rcond=None)[0]) - F) / h
-                H = -K + (Js.T * dF) @ Js
-                step = np.linalg.solve(H, -G)
-                q = q + step
-                if not np.all(np.isfinite(q)):
-                    break
-                if np.max(np.abs(step)) < 1e-12:
-                    break
-            if not np.all(np.isfinite(q)):
-                q = q_lin
-        q0 = np.zeros(m.nv)
-        q0[free] = q
-        D["q0"] = "static"
-        D["q0_value"] = q0
-        if "reset_static" not in sim.__dict__:
-            qadr = m.jnt_qposadr[m.dof_jntid[np.arange(m.nv)]]
-            base_reset = sim.reset
-
-            def reset(sim=sim, qadr=qadr, base_reset=base_reset):
-                base_reset()
-                q0 = sim._diag.get("q0_value") if sim._diag.get("q0") is not None else None
-                if q0 is not None:
-                    sim.plant.data.qpos[qadr] += q0
-
-            sim.reset = reset
-            sim.reset_static = True
+        m = sim.plant.model
+        sim.initial_q = rest_offset(sim.plant, sim.effects, gravity(m, D["scratch"]) - D["g0"], D["J"])
 
     def _initial_state(self, sim, psets):
         """SDOF: start each car at ``init.pos`` (the position output) and ``init.vel`` instead of at rest."""
+        sim.initial_v = None
         if self.kind != "sdof" or not any("init.pos" in Pd or "init.vel" in Pd for Pd in psets):
-            sim._diag["init"] = None
             return
         x0 = np.array([float(Pd.get("init.pos", 0.0)) for Pd in psets])
         v0 = np.array([float(Pd.get("init.vel", 0.0)) for Pd in psets])
         if self._sag is not None:  # the position output carries the static sag; the joint starts at x0 − sag
             x0 = x0 - self._sag["body"][:, 0]
-        sim._diag["init"] = (x0, v0)
-        if "reset" not in sim.__dict__:  # after the loop's reset (MuJoCo data to q = 0, v = 0): the initial state
-            m = sim.plant.model
-            dof = sim.plant.body_v[:, 0]
-            qadr = m.jnt_qposadr[m.dof_jntid[dof]]
-            base_reset = sim.reset
-
-            def reset(sim=sim, dof=dof, qadr=qadr, base_reset=base_reset):
-                base_reset()
-                init = sim._diag.get("init")
-                if init is not None:
-                    sim.plant.data.qpos[qadr] += init[0]
-                    sim.plant.data.qvel[dof] = init[1]
-
-            sim.reset = reset
+        m = sim.plant.model
+        dof = sim.plant.body_v[:, 0]
+        q = np.zeros(m.nv) if sim.initial_q is None else sim.initial_q.copy()
+        q[dof] += x0
+        v = np.zeros(m.nv)
+        v[dof] = v0
+        sim.initial_q, sim.initial_v = q, v
 
     def _add_sag(self, out, psets):
         sg = self._sag
@@ -639,27 +590,6 @@ def _series(kernel, s, v, dt, p, st, out):
     for k in range(s.shape[0]):
         for i in range(p.shape[0]):
             out[i, k] += kernel(s[k], v[k], k * dt, dt, p[i, 0], st[i, 0])
-
-
-def _tendon_jacobian(m) -> np.ndarray:
-    """(ntendon, nv) coefficients of the fixed tendons."""
-    import mujoco
-
-    J = np.zeros((m.ntendon, m.nv))
-    for i in range(m.ntendon):
-        for j in range(m.tendon_adr[i], m.tendon_adr[i] + m.tendon_num[i]):
-            if m.wrap_type[j] == mujoco.mjtWrap.mjWRAP_JOINT:
-                J[i, m.jnt_dofadr[m.wrap_objid[j]]] += m.wrap_prm[j]
-    return J
-
-
-def _gravity(m, d) -> np.ndarray:
-    """Generalized gravity force at q = 0, v = 0."""
-    import mujoco
-
-    mujoco.mj_resetData(m, d)
-    mujoco.mj_forward(m, d)
-    return -d.qfrc_bias.copy()
 
 
 def effect_candidates() -> dict:

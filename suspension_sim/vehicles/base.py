@@ -100,6 +100,13 @@ class Vehicle:
         return {}
 
 
+def mass_params(vcls, p=None) -> list[str]:
+    """The vehicle parameters that are masses or inertias (what the springs carry; their variation targets are
+    bodies): the parameters a car can be levelled with (``vehicle.levelled_with``)."""
+    p = vcls.Params() if p is None else p
+    return [n for n, t in vcls.variation_targets(p).items() if t and all(k.startswith("body") for k, _, _ in t)]
+
+
 def targets_on_corners(targets: list, corners: list[str], all_corners: list[str]) -> list | None:
     """The variation targets of one parameter that act on ``corners`` (MJCF elements named ``*_<corner>``).
     All of them when ``corners`` is every corner of the model; None when the parameter is not per corner
