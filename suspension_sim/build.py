@@ -244,6 +244,8 @@ class System:
         # the two never write the same columns
         for (eff, _), label in zip(self.effects, effect_labels([eff.name for eff, _ in self.effects])):
             eff.label = label
+        if any(lv is not None for lv in P.level):
+            self.initial_q = self.rest_offset()
 
         # actuator --------------------------------------------------------------------------------------
         acls = ACTUATORS.get(sc0.actuator.type, field="actuator.type", source=source)
@@ -513,6 +515,22 @@ class System:
             d.qpos[m.jnt_qposadr[m.dof_jntid]] += self.initial_q
         if self.initial_v is not None:
             d.qvel[:] = self.initial_v
+
+    def rest_offset(self) -> np.ndarray:
+        """Where the cars levelled with other masses than their own (``vehicle.levelled_with``) rest, from the
+        levelled ride height (:func:`suspension_sim.statics.rest_offset`); the other cars at q = 0."""
+        from .statics import gravity, rest_offset, tendon_jacobian
+
+        P, m = self.plant, self.plant.model
+        J = tendon_jacobian(m)
+        # the generalized force the levelled springs leave over at q = 0: gravity minus the springs' preloads
+        dg = gravity(m, mujoco.MjData(m)) + J.T @ (m.tendon_stiffness * m.tendon_lengthspring[:, 0])
+        for i, lv in enumerate(P.level):
+            if lv is None:
+                for dofs in (P.body_v, P.wheel_v):
+                    if dofs is not None:
+                        dg[dofs[i]] = 0.0
+        return rest_offset(P, self.effects, dg, J)
 
     def sensor_rng(self, j: int, current=None) -> "PerCarRNG":
         """The noise generator of sensor ``j`` at the start of a run: one stream per car, seeded by the car's

@@ -66,8 +66,15 @@ class ComponentCfg(_Strict):
 
 
 class VehicleCfg(_Strict):
+    """``levelled_with``: masses and inertias (vehicle parameter names) the car was levelled with, when they are
+    not its ``params``: the springs carry *those* weights at zero travel (the ride height where positions read
+    zero), and the car, heavier or lighter, starts at rest where its springs and suspension effects carry its
+    own weight (:mod:`suspension_sim.statics`): a load added without re-levelling shows as sag, and a stop's
+    gap or a cubic spring's zero stays where it is on the car.  Empty (the default): levelled with ``params``."""
+
     model: str = "quarter_car"
     params: dict[str, Any] = Field(default_factory=dict)
+    levelled_with: dict[str, Any] = Field(default_factory=dict)
     effects: list[EffectCfg] = Field(default_factory=list)
     variations: list[VariationCfg] = Field(default_factory=list)
     maneuver: Optional[ComponentCfg] = None
@@ -335,6 +342,16 @@ def check_components(sc: Scenario, source: str | None = None) -> None:
     vcls = VEHICLES.get(sc.vehicle.model, field="vehicle.model", source=source)
     vparams = validate_params(vcls.Params, sc.vehicle.params, "vehicle.params", source)
     corners = vcls.corner_names(vparams)
+    if sc.vehicle.levelled_with:
+        from .vehicles.base import mass_params
+
+        masses = mass_params(vcls, vparams)
+        bad = [k for k in sc.vehicle.levelled_with if k not in masses]
+        if bad:
+            raise ScenarioError(f"{bad[0]!r} is not a mass or inertia of {sc.vehicle.model!r} (levelled_with takes: "
+                                f"{', '.join(masses)})", source=source, field=f"vehicle.levelled_with.{bad[0]}")
+        validate_params(vcls.Params, {**sc.vehicle.params, **sc.vehicle.levelled_with}, "vehicle.levelled_with",
+                        source)
     for i, e in enumerate(sc.vehicle.effects):
         ecls = EFFECTS.get(e.type, field=f"vehicle.effects.{i}.type", source=source)
         validate_params(ecls.Params, e.params, f"vehicle.effects.{i}.params", source)

@@ -60,6 +60,12 @@ class Plant:
             raise ScenarioError("an ensemble must use one vehicle model", source=source, field="vehicle.model")
         self.vcls = VEHICLES.get(vehicle_cfgs[0].model, field="vehicle.model", source=source)
         self.params = [validate_params(self.vcls.Params, v.params, "vehicle.params", source) for v in vehicle_cfgs]
+        # the parameters each car was levelled with when they are not its own (vehicle.levelled_with), else None
+        self.level = []
+        for v, p in zip(vehicle_cfgs, self.params):
+            lv = (validate_params(self.vcls.Params, {**v.params, **v.levelled_with}, "vehicle.levelled_with", source)
+                  if getattr(v, "levelled_with", None) else None)
+            self.level.append(None if lv is None or lv == p else lv)
         corners = self.vcls.corners(self.params[0])
         for p in self.params[1:]:
             if len(self.vcls.corners(p)) != len(corners):
@@ -110,10 +116,10 @@ class Plant:
         cache: dict[str, tuple] = {}
         self._car_xml = []
         group, sub = 16, None  # attach cost grows with the parent's size: cars go in groups of 16 first
-        for i, p in enumerate(self.params):
-            key = p.model_dump_json()
+        for i, (p, lv) in enumerate(zip(self.params, self.level)):
+            key = p.model_dump_json() + ("" if lv is None else lv.model_dump_json())
             if key not in cache:
-                root = self.vcls.build(p, dt=dt)
+                root = self.vcls.build(p, dt=dt, level=lv)
                 if not self.road_dof:
                     _road_as_rest_length(root, [c.suffix for c in self.corners])
                 cache[key] = (root.to_xml_string(), root.get_assets())

@@ -79,6 +79,8 @@ BAD = [
     ("vehicle.effects", [{"type": "quadratic_damping", "params": {"c": 1.0}}], "vehicle.effects.0.params.c", "unknown key"),
     ("vehicle.effects", [{"type": "coulomb_friction", "corners": ["front"]}], "vehicle.effects.0.corners", "unknown corner"),
     ("vehicle.variations", [{"param": "mass", "values": [1.0]}], "vehicle.variations.0.param", "unknown vehicle parameter"),
+    ("vehicle.levelled_with", {"damping": 900.0}, "vehicle.levelled_with.damping", "not a mass or inertia"),
+    ("vehicle.levelled_with", {"sprung_mass": -1.0}, "vehicle.levelled_with.sprung_mass", "greater than 0"),
     ("sim.control_dt", 0.00075, "sim.control_dt", "whole multiple of dt"),
     ("sim.log_dt", 0.0002, "sim.log_dt", "whole multiple of dt"),
     ("sensors", [], "sensors", "needs sensor(s) corner_body_vel"),

@@ -369,6 +369,26 @@ def test_static_sag_half_car(vp):
     assert s["pitch"] == pytest.approx((zr - zf) / L, abs=1e-3 * abs(zf) / L + 1e-9)  # nose down when zf < zr
 
 
+def test_a_car_heavier_than_it_was_levelled_with_starts_at_rest_at_its_sag():
+    """``vehicle.levelled_with``: the half car carries 100 kg more than the sprung mass it was levelled with.  It
+    starts at rest at the settled sag of the load-step test above (no drop, no ringing) and stays there; the same
+    scenario without ``levelled_with`` is re-levelled (starts and stays at zero)."""
+    p, dm = params("half_car"), 100.0
+    L = p.a + p.b
+    Ff, Fr = dm * G * p.b / L, dm * G * p.a / L
+    sag = {"travel_front": -Ff / p.spring_stiffness_front, "travel_rear": -Fr / p.spring_stiffness_rear,
+           "wheel_z_front": -Ff / p.tire_stiffness_front, "tire_force_rear": Fr}
+    for levelled in (True, False):
+        sc = scenario("half_car", {"sprung_mass": p.sprung_mass + dm}, duration=0.5, log_dt=0.01)
+        if levelled:
+            sc.vehicle.levelled_with = {"sprung_mass": p.sprung_mass}
+        ts = Simulation([sc]).run()[0].ts
+        for k, v in sag.items():
+            at_sag = np.allclose(ts[k].to_numpy(), v, rtol=1e-6, atol=0)
+            assert at_sag == levelled, (levelled, k, v, ts[k].to_numpy()[[0, -1]])
+        assert np.max(np.abs(ts["body_acc"])) < 1e-6
+
+
 # ------------------------------------------------------------------------------------------------------
 # SDOF rig (no tire): free response after a mass step and force-input step response
 def _sdof_step_response(t, x0, m, k, c):

@@ -51,7 +51,7 @@ class Problem:
         self._engines: dict = {}
         # the nominal model's masses: every engine levels the car with them (the ride height where position
         # sensors zeroed at the nominal ride height read zero), not with those of the model that first needs it
-        self.level = None if spec is None else dict(spec.P)
+        self.level = None if spec is None else {**spec.P, **spec.level}
 
     @staticmethod
     def omega_max(spec: ModelSpec) -> float:
@@ -86,7 +86,7 @@ class Problem:
                 if eng is None:
                     effects = [(e.label, e.type, e.corners, e.fixed) for e in spec.effects]
                     if self.level is None:
-                        self.level = dict(spec.P)
+                        self.level = {**spec.P, **spec.level}
                     eng = self._engines[key] = Engine(self.kind, self.inputs, self.dt, effects, spec.P,
                                                       lag=spec.lag, max_dt=dt, hold=self.rec.hold,
                                                       level=self.level)

@@ -75,11 +75,13 @@ class ModelSpec:
     offsets: bool = True
     bounds_factor: float = 3.0
     lag: bool = False  # the actuator lag is part of the model
+    level: dict = field(default_factory=dict)  # masses the car was levelled with, when not its own (levelled_with)
 
     def copy(self) -> "ModelSpec":
         return ModelSpec(self.kind, dict(self.P), [copy.copy(f) for f in self.free],
                          [copy.deepcopy(e) for e in self.effects], list(self.fixed_nominal), self.source,
-                         copy.deepcopy(self.raw), self.position_zero, self.offsets, self.bounds_factor, self.lag)
+                         copy.deepcopy(self.raw), self.position_zero, self.offsets, self.bounds_factor, self.lag,
+                         dict(self.level))
 
     def vector(self, x) -> dict:
         P = dict(self.P)
@@ -168,7 +170,7 @@ def load_model(path_or_dict, source: str | None = None) -> ModelSpec:
     raw = dict(raw)
     kind = raw.get("model", "quarter_car")
     unknown = set(raw) - {"model", "params", "effects", "inputs", "variations", "maneuver", "position_zero",
-                          "offsets", "bounds_factor"}
+                          "offsets", "bounds_factor", "levelled_with"}
     if unknown:
         raise ScenarioError(f"unknown key(s) {sorted(unknown)} in the vehicle block", source=source)
     if kind != "damper" and kind not in VEHICLES.names():
@@ -245,4 +247,15 @@ def load_model(path_or_dict, source: str | None = None) -> ModelSpec:
         P[key] = default if (v is None and not isinstance(default, str)) else (v or 0.0)
         if is_free:
             free.append(FreeParam(key, P[key], -np.inf if name == "force_offset" else 1e-6, np.inf, 1.0))
-    return ModelSpec(kind, P, free, effects, fixed, source or "", raw, pz, bool(raw.get("offsets", True)), factor)
+    level = raw.get("levelled_with") or {}
+    if level:  # (a fitted model written back: the masses its nominal ride height carries)
+        from ..vehicles.base import mass_params
+
+        masses = mass_params(VEHICLES.get(kind)) if kind != "damper" else []
+        for k, v in level.items() if isinstance(level, dict) else [(level, None)]:
+            if k not in masses or isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
+                raise ScenarioError(f"levelled_with takes positive masses and inertias of {kind} "
+                                    f"({', '.join(masses) or 'none'}), got {k!r}: {v!r}", source=source,
+                                    field="levelled_with")
+    return ModelSpec(kind, P, free, effects, fixed, source or "", raw, pz, bool(raw.get("offsets", True)), factor,
+                     level={k: float(v) for k, v in level.items()})

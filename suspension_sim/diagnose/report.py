@@ -59,6 +59,12 @@ def vehicle_block(D: Diagnosis) -> dict:
         elif "actuator" in d:
             actuator.update({k: float(v) for k, v in d["actuator"].items()})
     veh = {"model": kind, "params": params, "effects": effects}
+    if kind != "damper":
+        from .engine import levelled_with
+
+        lw = levelled_with(kind, D.prob.level or D.nominal.P, P)
+        if lw:  # a changed mass sags from the nominal ride height (the search does not re-level it)
+            veh["levelled_with"] = lw
     out = {"vehicle": veh, "position_zero": spec.position_zero}
     if actuator:
         out["actuator"] = {"type": "ideal", "params": actuator}
@@ -89,8 +95,10 @@ def write_mjcf(D: Diagnosis, path: Path) -> str | None:
 
         blk = vehicle_block(D)
         vcls = VEHICLES.get(blk["vehicle"]["model"])
-        root = vcls.build(validate_params(vcls.Params, blk["vehicle"]["params"], "vehicle.params"),
-                          dt=min(5e-4, D.record.dt))
+        vp = blk["vehicle"]["params"]
+        lw = blk["vehicle"].get("levelled_with")
+        root = vcls.build(validate_params(vcls.Params, vp, "vehicle.params"), dt=min(5e-4, D.record.dt),
+                          level=validate_params(vcls.Params, {**vp, **lw}, "vehicle.levelled_with") if lw else None)
         path.write_text("<!-- fitted by suspension-sim diagnose: masses, springs and dampers of the fitted model; the\n"
                         "     added effects act through the effect_* motors (suspension_sim.effects), see model.fitted.yaml -->\n"
                         + root.to_xml_string())

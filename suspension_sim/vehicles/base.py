@@ -83,13 +83,20 @@ class Vehicle:
 
     # -- building --------------------------------------------------------------------------------------
     @classmethod
-    def build(cls, p, dt: float | None = None) -> mjcf.RootElement:
-        """The model's MJCF with parameters applied and equilibrium preloads set."""
+    def build(cls, p, dt: float | None = None, level=None) -> mjcf.RootElement:
+        """The model's MJCF with parameters applied and equilibrium preloads set: those of the car with the
+        parameters ``level`` (its masses differ from ``p``'s: ``vehicle.levelled_with``) when given, so that the
+        springs carry that car's weight at zero travel."""
         root = mjcf.from_path(str(models_dir() / cls.xml))
         cls.apply_params(root, p)
         if dt is not None:
             root.option.timestep = dt
-        set_equilibrium_preloads(root)
+        if level is None:
+            set_equilibrium_preloads(root)
+            return root
+        for t in cls.build(level).find_all("tendon"):
+            if t.springlength is not None:
+                root.find("tendon", t.name).springlength = t.springlength
         return root
 
     # parameter names that scale per corner, used by time-varying variations
