@@ -3,11 +3,13 @@ benchmarks/blind_truth.py), kept as fast checks of the search's engine against a
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from scipy.integrate import solve_ivp
 
 from suspension_sim.diagnose.calibrate import Problem
 from suspension_sim.diagnose.io import record_from_arrays
 from suspension_sim.diagnose.model import load_model
+from suspension_sim.errors import ScenarioError
 
 G = 9.81
 CAR = {"sprung_mass": 560.0, "unsprung_mass": 68.0, "spring_stiffness": 36000.0, "damping": 2950.0,
@@ -135,6 +137,10 @@ def test_the_replay_of_a_loaded_car_on_its_stop_follows_the_search(tmp_path):
     build_report(D, tmp_path / "diag", confirm=True, plots=False)
     sc = yaml.safe_load((tmp_path / "diag" / "scenario.fitted.yaml").read_text())
     assert sc["vehicle"]["levelled_with"]["sprung_mass"] == CAR["sprung_mass"]
+    # model.fitted.yaml carries it too, and reads back as a model levelled at the nominal masses
+    assert load_model(tmp_path / "diag" / "model.fitted.yaml").level == {"sprung_mass": CAR["sprung_mass"]}
+    with pytest.raises(ScenarioError, match="levelled_with takes positive masses"):
+        load_model({"model": "quarter_car", "levelled_with": {"damping": 1.0}})
     res = CliRunner().invoke(app, ["run", str(tmp_path / "diag" / "scenario.fitted.yaml"), "--out",
                                    str(tmp_path / "run"), "-q", "--set", "outputs.timeseries=true"])
     assert res.exit_code == 0, res.output

@@ -92,7 +92,7 @@ def test_a_floor_raised_on_a_worse_model_comes_back_down_on_a_better_one():
     sel.prob = types.SimpleNamespace(channels=chans, Y=Y, scale=np.std(Y, axis=0), simulate=lambda spec, P: Y - noise)
     sel.rec = types.SimpleNamespace(inputs={"road": rng.standard_normal(n)}, fs=1000.0)
     sel.train, sel.user_floors = (0, n), {}
-    floors = {c: {"value": 3 * s, "nrmse": 3 * s / sel.prob.scale[i], "source": "earlier", "top_band": 0.2 * s}
+    floors = {c: {"value": 3 * s, "nrmse": 3 * s / sel.prob.scale[i], "source": "earlier", "record_floor": 0.2 * s}
               for i, (c, s) in enumerate(zip(chans, [0.03, 0.4]))}
     sel.recolour(floors, types.SimpleNamespace(spec=None, P={}, offsets=None))
     for c, s in zip(chans, [0.03, 0.4]):

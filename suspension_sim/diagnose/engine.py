@@ -594,9 +594,9 @@ def _series(kernel, s, v, dt, p, st, out):
 
 def levelled_with(kind: str, level: dict, P: dict) -> dict:
     """The masses a scenario replaying parameter set ``P`` states as ``vehicle.levelled_with`` so that
-    ``suspension-sim run`` starts the car where the engine does: the ``level`` masses when a mass of ``P`` differs
-    from them on a car with real springs (the engine then does not re-level: :meth:`Engine._write_vehicle`), else
-    none (re-levelled, as ``run`` does by itself)."""
+    ``suspension-sim run`` starts the car where the engine does: the ``level`` values of the masses of ``P`` that
+    differ from them, on a car with real springs (the engine then does not re-level: :meth:`Engine._write_vehicle`);
+    else none (re-levelled, as ``run`` does by itself)."""
     if kind in ("sdof", "damper"):
         return {}
     vcls = VEHICLES.get(kind)
@@ -605,7 +605,7 @@ def levelled_with(kind: str, level: dict, P: dict) -> dict:
         return {}
     if any("stiffness" in k and float(v) <= 1.5 * K_EPS for k, v in P.items() if k in vcls.Params.model_fields):
         return {}
-    return {n: float(level[n]) for n in names}
+    return {n: float(level[n]) for n in names if float(P.get(n, level[n])) != float(level[n])}
 
 
 def effect_candidates() -> dict:

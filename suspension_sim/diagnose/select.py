@@ -385,8 +385,10 @@ class Selector:
                 out[c] = {"value": float(self.user_floors[c]), "source": "user (repeatability)"}
             else:
                 v, top, dif = record_floor(self.prob.Y[:, i], self.rec.fs)
+                # record_floor: the record's own floor (the lower of the two estimates), which the re-estimation
+                # never goes below; top_band, second_differences: the two estimates
                 out[c] = {"value": v, "source": "estimated (PSD top band)" if v == top else
-                          "estimated (second differences)", "top_band": v, "psd_top_band": top,
+                          "estimated (second differences)", "record_floor": v, "top_band": top,
                           "second_differences": dif}
             out[c]["nrmse"] = out[c]["value"] / float(self.prob.scale[i])
         return out
@@ -417,7 +419,7 @@ class Selector:
             # coulomb_friction seed 0 reached 0.0298 against a true floor of 0.0222 at the engine's 0.5 ms
             # step, and a freed tire stiffness took 0.0298 → 0.0263 once the floor was right; the friction law
             # is now fitted at the finer step it asks for, CoulombFriction.fit_step)
-            top = float(floors[c].get("top_band", floors[c]["value"]))
+            top = float(floors[c].get("record_floor", floors[c]["value"]))
             if predictable > NOISE_LIKE:
                 continue  # model error: the floor stays what it was
             # white noise: the two estimates agree (within their scatter), and the top-band one stays.  A floor
@@ -427,8 +429,10 @@ class Selector:
             if new == floors[c]["value"]:
                 continue
             src = ("estimated (residual not predictable from the inputs or the other channels: coloured noise)"
-                   if new > top else "estimated (PSD top band of the residual)")
-            floors[c] = {"value": new, "source": src, "nrmse": new / float(self.prob.scale[i]), "top_band": top}
+                   if new > top else "estimated (the record's floor: the lower of its PSD top band and second "
+                                     "differences)")
+            floors[c] = {**floors[c], "value": new, "source": src, "nrmse": new / float(self.prob.scale[i]),
+                         "record_floor": top}
             if new > top:
                 raised.append(c)
         return raised
