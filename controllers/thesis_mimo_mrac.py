@@ -48,15 +48,19 @@ against the equations above.
 """
 from __future__ import annotations
 
+from typing import Literal
+
 import numba
 import numpy as np
-from pydantic import Field
+
+from pydantic import Field, model_validator
 
 from suspension_sim.components import Params
 from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
 from .thesis_common import (DM_HEADER, ZOH_HEADER, DiscreteMRAC, KernelLayout, ZOHFilter, am_poly, darma, dm_step,
+                            dm_theta_dot,
                             dm_theta_strides, k_dot, predictor, ref_value, shared_value, stamped_cache,
                             theta_from_predictor, zoh_update, zoh_y)
 
@@ -87,18 +91,130 @@ class MIMOParams(Params):
     kappa: float = Field(0.2, gt=0, le=1, description="control-increment weighting (1 = thesis)")
     beta_inv_range: tuple[float, float] = Field((0.2, 5.0), description="allowed (β0)⁻¹ diagonal / nominal")
     road_feedforward: bool = Field(True, description="U_T = u + K0·w + C0·ẇ (see module doc)")
+    probe_amplitude: float = Field(0.0, ge=0, description="closed-loop probing (ours, not the thesis's): a random "
+                                   "±amplitude force (N) per actuator, new each control step, added to U and seen "
+                                   "by the estimator; 0 = off (the thesis)")
+    probe_seed: int = Field(1, ge=1, lt=2147483647, description="seed of the probe's generator")
+    estimator: Literal["ls", "iv_probe"] = Field(
+        "ls", description="ls: recursive least squares on the identity with the measured Ȳ[k] in the regressor (the "
+        "thesis); iv_probe (ours): recursive instrumental variables, the instruments the same regressor built from "
+        "the nominal model's response to the probe alone (needs probe_amplitude > 0)")
+
+    @model_validator(mode="after")
+    def _iv_needs_probe(self):
+        if self.estimator == "iv_probe" and not np.all(np.asarray(self.probe_amplitude, dtype=float) > 0):
+            raise ValueError("estimator iv_probe needs probe_amplitude > 0 (its instruments are the probe's)")
+        return self
 
 
 # ---- the law: one control step for one car (suspension_sim.compiled) ---------------------------------------
 # p: the reference filter's header, the DiscreteMRAC header, the scalars _PS.. (sensor offsets of body_pos,
-# road, road_vel; D; n targets; st offset of the targets; a_m (3); K0, C0, feed-forward on), row 4 of the
-# reference A (8) and B (4) matrices, then matrices.  st: the signals ref_z, ref_pitch, ref_acc, err (2),
-# bias (2), the scratch [w, ẇ] (4), Y (2), Ȳ* (2), r (8), the signal Θ (unscaled, p·2), the targets
-# (n targets × 2), then the estimator's and filter's states.
+# road, road_vel; D; n targets; st offset of the targets; a_m (3); K0, C0, feed-forward on; probe amplitude;
+# estimator (0 ls, 1 iv_probe), p offset of the aux model [A1, A2, B1, B2] (16), st offset of the IV state),
+# row 4 of the reference A (8) and B (4) matrices, then matrices.  st: the signals ref_z, ref_pitch, ref_acc,
+# err (2), bias (2), the scratch [w, ẇ] (4), Y (2), Ȳ* (2), r (8), the probe (2), its generator's state (1),
+# the signal Θ (unscaled, p·2), the targets (n targets × 2), then the estimator's and filter's states.
 _HREF, _HDM = 0, ZOH_HEADER
 _PS = ZOH_HEADER + DM_HEADER
-_PA4, _PB4 = _PS + 12, _PS + 20
-_ST_RZ, _ST_RP, _ST_RA, _ST_E, _ST_BIAS, _ST_WIN, _ST_Y, _ST_YB, _ST_R, _ST_TH = 0, 1, 2, 3, 5, 7, 11, 13, 15, 23
+_PA4, _PB4 = _PS + 16, _PS + 24
+_ST_RZ, _ST_RP, _ST_RA, _ST_E, _ST_BIAS, _ST_WIN, _ST_Y, _ST_YB, _ST_R, _ST_PR, _ST_LCG, _ST_TH = (
+    0, 1, 2, 3, 5, 7, 11, 13, 15, 23, 25, 26)
+
+
+@numba.njit(cache=True)
+def _iv_update(p, st, hd, pa, ie, y, yo):
+    """Recursive instrumental variables (``estimator: iv_probe``, ours) on the estimator's identity
+    U[k−D] = Θᵀφ̃[k−D], done before :func:`dm_step` (called then without its own update): the instrument z[k−D] is
+    φ̃[k−D] built from the nominal rigid-body DARMA model's response Ye to the probe e alone,
+    z = [−Ye[k−D], −Ye[k−D−1], −e[k−D−1], …, −e[k−2D], −1, a_m(q⁻¹)Ye[k]], independent of the road.  Θ += Pz·ε/(1 +
+    φ̃ᵀPz), P −= Pz·(Pᵀφ̃)ᵀ/(1 + φ̃ᵀPz), then the covariance addition and the (β0)⁻¹ projection as dm_step's.  The
+    IV state at ie: e history (max(D, 2) + 1 rows of 2), Ye history (3 × 2), the z history (D + 1 rows of p),
+    scratch (4p + 2: Pz, Pᵀφ̃, φ̃, z, Ye[k])."""
+    m = 2
+    D = int(p[hd + 1])
+    npar = int(p[hd + 2])
+    TH = int(p[hd + 4])
+    PP = int(p[hd + 5])
+    Yh = int(p[hd + 6])
+    U = int(p[hd + 7])
+    PH = int(p[hd + 8])
+    SC = int(p[hd + 11])
+    Q = int(p[hd + 12])
+    tj, tc = dm_theta_strides(p, hd)
+    bi = npar - m
+    ne = max(D, 2) + 1
+    iy = ie + 2 * ne
+    iz = iy + 6
+    s0 = iz + (D + 1) * npar
+    PZ, PTF, F, Z, YE = s0, s0 + npar, s0 + 2 * npar, s0 + 3 * npar, s0 + 4 * npar
+    # Ye[k] = −A1 Ye[k−1] − A2 Ye[k−2] + B1 e[k−1] + B2 e[k−2]
+    for r in range(2):
+        v = 0.0
+        for c in range(2):
+            v += (-p[pa + 2 * r + c] * st[iy + c] - p[pa + 4 + 2 * r + c] * st[iy + 2 + c]
+                  + p[pa + 8 + 2 * r + c] * st[ie + c] + p[pa + 12 + 2 * r + c] * st[ie + 2 + c])
+        st[YE + r] = v
+    started = False
+    for j in range(npar):
+        st[F + j] = st[PH + (D - 1) * npar + j]
+        st[Z + j] = st[iz + (D - 1) * npar + j]
+        if st[F + j] != 0.0:
+            started = True
+    for c in range(2):  # the new last blocks: measured Ȳ[k] (regressor) and a_m(q⁻¹)Ye[k] (instrument)
+        st[F + bi + c] = (p[hd + 17] * y[yo + c] + p[hd + 18] * st[Yh + c] + p[hd + 19] * st[Yh + m + c]) * p[SC + bi + c]
+        st[Z + bi + c] = (p[hd + 17] * st[YE + c] + p[hd + 18] * st[iy + c] + p[hd + 19] * st[iy + 2 + c]) * p[SC + bi + c]
+    if started:
+        for i in range(npar):
+            a = 0.0
+            b = 0.0
+            for j in range(npar):
+                a += st[PP + i * npar + j] * st[Z + j]
+                b += st[PP + j * npar + i] * st[F + j]
+            st[PZ + i] = a
+            st[PTF + i] = b
+        denom = 1.0
+        for j in range(npar):
+            denom += st[F + j] * st[PZ + j]
+        for c in range(2):
+            e = st[U + (D - 1) * m + c] - dm_theta_dot(st, TH, tj, tc, c, F, npar)
+            for j in range(npar):
+                st[TH + j * tj + c * tc] += st[PZ + j] / denom * e
+        for i in range(npar):
+            for j in range(npar):
+                st[PP + i * npar + j] -= st[PZ + i] * st[PTF + j] / denom
+        tr = 0.0
+        for i in range(npar):
+            tr += st[PP + i * (npar + 1)]
+        if tr + p[hd + 13] < p[hd + 14]:
+            for i in range(npar):
+                st[PP + i * (npar + 1)] += p[Q + i]
+        lo = int(p[hd + 15])
+        hi = int(p[hd + 16])
+        for c in range(2):
+            kk = TH + (bi + c) * tj + c * tc
+            st[kk] = min(max(st[kk], p[lo + c]), p[hi + c])
+    # histories: Ye, then z[k] = [−Ye[k], −Ye[k−1], −e[k−1] … −e[k−D], −1, (Ȳe filled at its update)] · scaling
+    for c in range(2):
+        st[iy + 4 + c] = st[iy + 2 + c]
+        st[iy + 2 + c] = st[iy + c]
+        st[iy + c] = st[YE + c]
+    for k in range(D, 0, -1):
+        for j in range(npar):
+            st[iz + k * npar + j] = st[iz + (k - 1) * npar + j]
+    j = 0
+    for k in range(2):
+        for c in range(2):
+            st[iz + j] = -st[iy + 2 * k + c] * p[SC + j]
+            j += 1
+    for k in range(D):
+        for c in range(2):
+            st[iz + j] = -st[ie + 2 * k + c] * p[SC + j]
+            j += 1
+    st[iz + j] = -1.0 * p[SC + j]
+    j += 1
+    for c in range(2):
+        st[iz + j] = 0.0
+        j += 1
 
 
 @stamped_cache
@@ -124,8 +240,24 @@ def _kernel(t, y, p, st, u):
         st[TG + c] = zoh_y(p, st, _HREF, 0, c)
     for c in range(2):
         st[_ST_YB + c] = p[_PS + 6] * st[TG + c] + p[_PS + 7] * st[TG + 2 + c] + p[_PS + 8] * st[TG + 4 + c]
-    dm_step(p, st, _HDM, st, _ST_Y, st, _ST_YB, True)
+    iv = p[_PS + 13] != 0.0
+    if iv:
+        _iv_update(p, st, _HDM, int(p[_PS + 14]), int(p[_PS + 15]), st, _ST_Y)
+    dm_step(p, st, _HDM, st, _ST_Y, st, _ST_YB, not iv)
     U = int(p[_HDM + 7])
+    if p[_PS + 12] > 0.0:  # probing: ±amplitude, Park–Miller generator (exact in float64), in U's history too
+        for c in range(2):
+            st[_ST_LCG] = (16807.0 * st[_ST_LCG]) % 2147483647.0
+            st[_ST_PR + c] = p[_PS + 12] if st[_ST_LCG] >= 1073741823.5 else -p[_PS + 12]
+            st[U + c] += st[_ST_PR + c]
+        if iv:  # e history: e[k], e[k−1], …
+            ie = int(p[_PS + 15])
+            D = int(p[_HDM + 1])
+            for k in range(max(D, 2), 0, -1):
+                for c in range(2):
+                    st[ie + 2 * k + c] = st[ie + 2 * (k - 1) + c]
+            for c in range(2):
+                st[ie + c] = st[_ST_PR + c]
     for c in range(2):
         ff = 0.0
         if p[_PS + 11] != 0.0:
@@ -171,6 +303,7 @@ class MIMOMRAC(Controller):
         Bc = np.vstack([np.zeros((2, 2)), Mi @ T.T])
         Cc = np.hstack([np.eye(2), np.zeros((2, 2))])
         A, B = darma(Ac, Bc, Cc, h)
+        self.aux = np.concatenate([A[1].ravel(), A[2].ravel(), B[1].ravel(), B[2].ravel()])
         self.am = am_poly(2 * np.pi * shared_value(p.ref_freq), shared_value(p.ref_zeta), h)
         D, alpha, beta = predictor(A, B, self.am, int(shared_value(p.delay_steps)))
         self.D = D
@@ -180,6 +313,12 @@ class MIMOMRAC(Controller):
                                  kappa=shared_value(p.kappa), p0_bias=shared_value(p.p0_bias),
                                  q_bias=shared_value(p.q_bias))
         self.K0, self.C0 = K, C
+        if not isinstance(p.estimator, str):
+            from suspension_sim.errors import ScenarioError
+
+            raise ScenarioError("thesis_mimo_mrac: every car of an ensemble needs the same estimator",
+                                field="controller.params.estimator")
+        self.iv = p.estimator == "iv_probe"
         # reference: two-tier skyhook half car; q_r = [x_b, θ, x_wf, x_wr], input [w_f, w_r]
         mu = shared_value(p.unsprung_mass)
         Km, Cm = shared_value(p.ref_stiffness), shared_value(p.ref_skyhook)
@@ -208,16 +347,25 @@ class MIMOMRAC(Controller):
         lay.p(np.zeros(_PS))  # headers, filled by pack
         sl = [float(self.ctx.sensor_slice(nm)[0]) for nm in ("body_pos", "road", "road_vel")]
         lay.p(sl + [self.D, self.n_targets, _ST_TH + 2 * core.npar, *[float(a) for a in self.am[:3]], self.K0,
-                    self.C0, float(bool(p.road_feedforward))])
+                    self.C0, float(bool(p.road_feedforward)), shared_value(p.probe_amplitude),
+                    float(self.iv), 0.0, 0.0])
         assert lay.p(self.Ar[4]) == _PA4 and lay.p(self.Br[4]) == _PB4
-        assert lay.st(np.zeros(_ST_TH)) == _ST_RZ  # signals, scratch
+        st0 = np.zeros(_ST_TH)
+        st0[_ST_LCG] = shared_value(p.probe_seed)
+        assert lay.st(st0) == _ST_RZ  # signals, scratch, the probe's generator
         assert lay.st(core.theta0_unscaled().ravel()) == _ST_TH
         lay.st(np.zeros(2 * self.n_targets))
         core.pack(lay, _HDM, n)
         self.ref.pack(lay, _HREF)
+        if self.iv:
+            pa = lay.p(self.aux)
+            ne = max(self.D, 2) + 1
+            ie = lay.st(np.zeros(2 * ne + 6 + (self.D + 1) * core.npar + 4 * core.npar + 2))
+            lay.set_p(_PS + 14, [pa, ie])
         return lay.arrays()
 
     def kernel_signals(self):
         npar = self.core.npar
         return {"ref_z": (_ST_RZ, _ST_RZ + 1), "ref_pitch": (_ST_RP, _ST_RP + 1), "ref_acc": (_ST_RA, _ST_RA + 1),
-                "err": (_ST_E, _ST_E + 2), "bias": (_ST_BIAS, _ST_BIAS + 2), "theta": (_ST_TH, _ST_TH + 2 * npar)}
+                "err": (_ST_E, _ST_E + 2), "bias": (_ST_BIAS, _ST_BIAS + 2), "theta": (_ST_TH, _ST_TH + 2 * npar),
+                "probe": (_ST_PR, _ST_PR + 2)}

@@ -302,6 +302,7 @@ def mimo_reference(c, run, i, seen=None):
     est = DiscreteMRACReference(c.core, seen)
     D, am, p = c.core.D, c.core.am, Scalars(c.p)
     tg = [np.zeros(2)] * max(D + 1, 3)
+    lcg = int(p.probe_seed)
     out = []
     for _, y, _, _ in run:
         yb, w, wd = y["body_pos"][i, :2], y["road"][i], y["road_vel"][i]
@@ -310,20 +311,28 @@ def mimo_reference(c, run, i, seen=None):
         ref.push(win)
         tg = [ref.out()[:2]] + tg[:-1]
         UT = est.step(yb, am[0] * tg[0] + am[1] * tg[1] + am[2] * tg[2])
+        e = np.zeros(2)  # the probe (ours): ±amplitude from the Park–Miller generator, in U's history too
+        for j in range(2):
+            lcg = (16807 * lcg) % 2147483647
+            e[j] = p.probe_amplitude if lcg >= 1073741824 else -p.probe_amplitude
+        est.U[0] = est.U[0] + e
+        UT = UT + e
         ff = p.stiffness * w + p.lin_damping * wd if p.road_feedforward else 0.0
         th = est.th * c.core.sc[:, None]
         out.append((UT - ff, {"ref_z": r[0], "ref_pitch": r[1], "ref_acc": c.Ar[4] @ r + c.Br[4] @ win,
-                              "err": yb - tg[D], "bias": -th[c.core.npar - 3], "theta": th.ravel()}))
+                              "err": yb - tg[D], "bias": -th[c.core.npar - 3], "theta": th.ravel(),
+                              "probe": e}))
     return out
 
 
 @pytest.mark.parametrize("delay", [0, 1])
 def test_mimo_mrac_law(request, delay):
     """Thesis Ch. 7 law (matrix least squares with one covariance, (β0)⁻¹ projection engaged) for two
-    half cars, without and with one sample of loop delay."""
+    half cars, without and with one sample of loop delay; with the probing of issue 12 (ours) on, ±50 N."""
     def edit(raw):
         raw["sensors"] = [{"type": s["type"]} for s in raw["sensors"]]
-        raw["controller"]["params"].update(delay_steps=delay, beta_inv_range=[0.95, 1.05])
+        raw["controller"]["params"].update(delay_steps=delay, beta_inv_range=[0.95, 1.05], probe_amplitude=50.0,
+                                           probe_seed=12345)
 
     c = controller(request.config.rootpath, "thesis_ch7_braking", edit)
     scales = {"body_pos": 0.003, "road": 0.003, "road_vel": 0.02}

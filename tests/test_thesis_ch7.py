@@ -142,7 +142,9 @@ def test_adaptation_from_a_wrong_design_within_4_s(request):
 
 @pytest.fixture(scope="module")
 def dirt(request):
-    return _variants(request.config.rootpath, "thesis_ch7_dirt")
+    sc = parse_scenario(read_yaml(request.config.rootpath / "scenarios" / "thesis_ch7_dirt.yaml"))
+    only = [v for v, _ in sc.expand() if "probe" not in v]  # the probing variants: their own 20-s test below
+    return _variants(request.config.rootpath, "thesis_ch7_dirt", only=only)
 
 
 def test_dirt_road_following_is_not_reproduced(dirt):
@@ -237,3 +239,91 @@ def test_road_excited_full_run_from_a_wrong_design(request):
     assert not ok("wrong_design_fixed")
     for a, b in wins:
         assert _err(ts["wrong_design"], ref, "pitch", a, b) < 0.5 * _err(ts["wrong_design_fixed"], ref, "pitch", a, b)
+
+
+IV = {"probe_amplitude": 300.0, "estimator": "iv_probe", "p0": 1e-10, "p0_bias": 1e-12, "q_bias": 0.0}
+
+
+def _dirt_run(root, variant, params, duration):
+    raw = read_yaml(root / "scenarios" / "thesis_ch7_dirt.yaml")
+    sc = dict(parse_scenario(raw).expand())[variant]
+    sc.sim.duration = duration
+    sc.controller.params.update(params)
+    return Simulation([sc]).run()[0].ts
+
+
+def test_iv_probe_estimator_is_the_recursive_iv_of_its_docstring(request):
+    """The named variant ``estimator: iv_probe`` (ours): replaying the run's own log through a plain numpy
+    recursive IV (instrument = the estimator's regressor built from the nominal DARMA model's response to the probe
+    alone) gives the kernel's Θ to round-off, 1 s from the right design."""
+    from suspension_sim.controllers.thesis_common import am_poly, darma
+
+    ts = _dirt_run(request.config.rootpath, "mimo_mrac_q0", {**IV, "p0": 1e-8, "p0_bias": 1e-8}, 1.0)
+    TH = ts[[f"ctrl.theta.{i}" for i in range(18)]].to_numpy()
+    th0 = TH[0].reshape(-1, 2)
+    am = am_poly(2 * np.pi * 2.0, 1.0, 0.01)
+
+    def pad(a):
+        return np.vstack([np.zeros((3, a.shape[1])), a])
+
+    W = ts[["road_front", "road_rear"]].to_numpy()
+    Y = pad(ts[["body_z", "pitch"]].to_numpy())
+    U = pad(ts[["command_front", "command_rear"]].to_numpy() + 17000 * W
+            + 500 * ts[["road_vel_front", "road_vel_rear"]].to_numpy())
+    E = pad(ts[["ctrl.probe.0", "ctrl.probe.1"]].to_numpy())
+    assert set(np.unique(np.abs(E[3:]))) == {300.0}
+    T = np.array([[1.0, -1.5], [1.0, 1.5]])
+    Mi = np.linalg.inv(np.diag([500.0, 1125.0]))
+    Ac = np.block([[np.zeros((2, 2)), np.eye(2)], [-Mi @ T.T @ (17000 * T), -Mi @ T.T @ (500 * T)]])
+    A, B = darma(Ac, np.vstack([np.zeros((2, 2)), Mi @ T.T]), np.hstack([np.eye(2), np.zeros((2, 2))]), 0.01)
+    Ye = np.zeros_like(E)
+    for i in range(2, len(E)):
+        Ye[i] = -A[1] @ Ye[i - 1] - A[2] @ Ye[i - 2] + B[1] @ E[i - 1] + B[2] @ E[i - 2]
+
+    def yb(X, i):
+        return am[0] * X[i] + am[1] * X[i - 1] + am[2] * X[i - 2]
+
+    sc = np.max(np.abs(th0), axis=1)
+    sc[sc == 0] = 1000.0
+    th, P = th0 / sc[:, None], np.eye(9) * 1e-8
+    moved = 0.0
+    for k in range(4, len(Y)):
+        f = np.concatenate([-Y[k - 1], -Y[k - 2], -U[k - 2], [-1.0], yb(Y, k)]) * sc
+        z = np.concatenate([-Ye[k - 1], -Ye[k - 2], -E[k - 2], [-1.0], yb(Ye, k)]) * sc
+        Pz = P @ z
+        d = 1 + f @ Pz
+        th += np.outer(Pz, U[k - 1] - th.T @ f) / d
+        P -= np.outer(Pz, P.T @ f) / d
+        got = TH[k - 3]
+        assert np.max(np.abs((th * sc[:, None]).ravel() - got)) < 1e-12 * np.max(np.abs(got)), k
+        moved = max(moved, np.max(np.abs(got - TH[0])) / np.max(np.abs(TH[0])))
+    assert moved > 0.01  # the estimate did move (the check is not of a frozen Θ)
+
+
+def test_dirt_road_probe_and_iv_remove_the_pull_on_beta0_inverse_least_squares_does_not(request):
+    """Issue 12, Ch. 7 dirt road: the pull of the (β0)⁻¹ estimate is the direct-form estimator's errors-in-variables
+    bias.  With closed-loop probing (a ±300 N random force per actuator, ours) and the instrumental-variable
+    estimator (variant ``wrong_design_iv_probe``, ours), from the stated wrong design, the (β0)⁻¹ diagonal is not
+    pulled down in 20 s (measured 1.01 / 1.01 × its start); the baseline, the thesis's least squares with the same
+    probe (``wrong_design_ls_probe``), is pulled to its 0.2× bound (0.20 / 0.21).  The page: the claim is still not
+    reproduced (60 s: bounce error 10.8 mm against a 7.7 mm reference motion, the wrong design held fixed with the
+    probe 10.7 mm), and the IV loop diverges on 2 of 5 road realisations."""
+    ts = _variants(request.config.rootpath, "thesis_ch7_dirt", only=("wrong_design_iv_probe", "wrong_design_ls_probe"),
+                   duration=20.0)
+
+    def diag(t):
+        th = t[["ctrl.theta.14", "ctrl.theta.17"]].to_numpy()
+        return th[-1] / th[0]
+
+    assert np.all(np.abs(diag(ts["wrong_design_iv_probe"]) - 1) < 0.1), diag(ts["wrong_design_iv_probe"])
+    assert np.all(diag(ts["wrong_design_ls_probe"]) < 0.3), diag(ts["wrong_design_ls_probe"])
+
+
+def test_iv_probe_without_a_probe_is_a_one_line_error(request):
+    from suspension_sim.errors import ScenarioError
+
+    raw = read_yaml(request.config.rootpath / "scenarios" / "thesis_ch7_dirt.yaml")
+    raw.pop("variants")
+    raw["controller"]["params"]["estimator"] = "iv_probe"
+    with pytest.raises(ScenarioError, match="probe_amplitude > 0"):
+        parse_scenario(raw)
