@@ -235,3 +235,12 @@ def test_the_friction_law_is_fitted_at_a_step_that_leaves_its_error_below_the_no
         err[declared] = np.std(e[500:, 0]) / noise[0]  # body acceleration, after the start
     assert err[True] < 0.4, err  # at the fit's step: well below the noise
     assert err[False] > 0.9, err  # at the former step: as large as the noise
+    # the law's mean over the step (step_force: mean, what diagnose fits) at the record's 0.5 ms step: the force
+    # changes sign inside a step at each rate reversal, and gets the right impulse there; as accurate as the
+    # start-of-step law at 0.125 ms, 4x faster
+    mean = spec.copy()
+    mean.effects[0].fixed["step_force"] = "mean"
+    prob = Problem(rec, mean)
+    assert prob.step(mean) == 5e-4
+    e = prob.simulate(mean, mean.P) - clean
+    assert np.std(e[500:, 0]) / noise[0] < 0.4, np.std(e[500:, 0]) / noise[0]

@@ -85,6 +85,37 @@ def test_coulomb_friction_tanh_law():
     np.testing.assert_allclose(eff.signals()["force"], ref, rtol=1e-14)
 
 
+def test_coulomb_friction_tanh_step_mean_law():
+    """step_force: mean: the F that equals −F_c times the mean of tanh(v(τ)/v_eps) over the step, v(τ) linear
+    from v_k to v_k + (a_k + F/m_r)·dt (a_k as for stick_slip), checked by quadrature (bisection on F, a
+    midpoint rule of 20 000 points), through a rate reversal inside a step and a stiff v_eps."""
+    m_r, Fc, ve = 50.0, 180.0, 0.002
+    eff = build("coulomb_friction", [{"force": Fc, "v_eps": ve, "step_force": "mean"}], n_sel=1)
+    tau = (np.arange(20000) + 0.5) / 20000 * DT
+
+    def by_hand(v, a):
+        lo, hi = -Fc, Fc
+        for _ in range(80):
+            F = 0.5 * (lo + hi)
+            r = F + Fc * np.mean(np.tanh((v + (a + F / m_r) * tau) / ve))
+            lo, hi = (lo, F) if r > 0 else (F, hi)
+        return 0.5 * (lo + hi)
+
+    F_prev, v_prev, seen = 0.0, None, set()
+    for v in (0.01, 0.004, 0.0005, -0.002, -0.0001, 0.3, 0.0):
+        a = 0.0 if v_prev is None else (v - v_prev) / DT - F_prev / m_r
+        ref = by_hand(v, a)
+        got = f(eff, [[0.0]], [[v]])[0, 0]
+        assert got == pytest.approx(ref, rel=1e-6, abs=1e-6), v
+        seen.add(np.sign(v) * np.sign(v + (a + got / m_r) * DT))  # the rate's sign at the start and end
+        F_prev, v_prev = got, v
+    assert -1.0 in seen and 1.0 in seen  # steps with and without a reversal inside
+    # a narrow ramp (no other acceleration, a mass the friction hardly moves): the law at the rate itself
+    eff = build("coulomb_friction", [{"force": Fc, "v_eps": 0.05, "step_force": "mean"}], n_sel=1,
+                effective_mass=np.full((1, 1), 1e9))
+    assert f(eff, [[0.0]], [[0.03]])[0, 0] == pytest.approx(-Fc * math.tanh(0.03 / 0.05), rel=1e-5)
+
+
 def test_coulomb_friction_stick_slip_law():
     """Time stepping: F_k = clip(−m_r·(v_k/dt + a_k), −F_c, F_c), a_k = (v_k − v_{k−1})/dt − F_{k−1}/m_r."""
     m_r, Fc = 50.0, 100.0

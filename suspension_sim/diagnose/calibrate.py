@@ -94,9 +94,9 @@ class Problem:
 
     def step(self, spec: ModelSpec) -> float:
         """The physics step bound of a model: ``max_dt``, or finer when one of its effects says that its law
-        with the model's values needs it (``fit_step(params, lightest mass)``: an effect force is held over
-        each step, so its error is first order in the step; dry friction's fitted tanh law is a stiff damper
-        near zero rate).  The record's sample interval is divided by a power of two (at most
+        with the model's values needs it (``fit_step(params and fixed settings, lightest mass)``: an effect
+        force is held over each step, so its error is first order in the step; dry friction's fitted tanh law
+        is a stiff damper near zero rate).  The record's sample interval is divided by a power of two (at most
         ``MAX_REFINE`` times more than ``max_dt`` gives), so that the few steps in use are cached engines;
         within one fit the model, and so the step, stays the same."""
         from ..registry import EFFECTS
@@ -107,7 +107,7 @@ class Problem:
             f = getattr(EFFECTS.get(e.type), "fit_step", None) if e.type in EFFECTS else None
             if f is not None and masses:
                 pre = f"{e.label}."
-                h = f({n[len(pre):]: v for n, v in spec.P.items() if n.startswith(pre)}, min(masses))
+                h = f({**e.fixed, **{n[len(pre):]: v for n, v in spec.P.items() if n.startswith(pre)}}, min(masses))
                 if h:
                     need.append(h)
         if not need or min(need) >= self.max_dt:
