@@ -66,3 +66,38 @@ def test_full_car_placements_are_searched_nested():
     assert full["parameter:sprung_mass"] is None and staged("full_car")
     half = {c.name: c.parent for c in library(load_model({"model": "half_car"}))}
     assert half["bump_stop@front"] is None and not staged("half_car") and not staged("quarter_car")
+
+
+
+def test_full_car_placements_need_a_parent_that_clearly_lowered_the_bic():
+    """A placement (an axle, a corner) is fitted only when its parent lowered the training BIC by more than
+    PLACEMENT_BIC with a size distinguishable from zero.  On the full car's speed record (Coulomb friction on
+    the front corners) the old rule (any ΔBIC < 0) fitted 22 placements in round 1, among them those of tire
+    lift-off (no parameter, nothing lifts off: ΔBIC −0.0), asymmetric damping (−12, zero size) and the cubic
+    spring (−4.9, zero size); the friction on all four corners (−3636, rejected for the rear channels) must
+    still set off its placements."""
+    from suspension_sim.diagnose.select import PLACEMENT_BIC, Trial, placement_refused
+
+    def trial(d_bic, zero=False, applicable=True):
+        return Trial("x", 1, applicable, d_bic=d_bic, zero_size=zero)
+
+    assert PLACEMENT_BIC >= 10  # "very strong" evidence (2·ln BF > 10)
+    assert placement_refused(trial(-3636.2)) == "" and placement_refused(trial(-2853.1)) == ""
+    assert placement_refused(trial(-0.0)) and placement_refused(trial(-4.9)) and placement_refused(trial(27.0))
+    assert "zero" in placement_refused(trial(-12.0, zero=True))
+    assert placement_refused(None) and placement_refused(trial(float("nan"), applicable=False))
+
+
+def test_an_effect_that_never_acts_on_the_record_is_not_fitted():
+    """Tire lift-off has nothing to fit; on a record where no tire lifts off the model's outputs are the same
+    with it, to the bit, so it is not fitted (before: a refit of the free dampings for ΔBIC −0.0, and on the
+    full car its six placements after it) and nothing is named."""
+    from suspension_sim.diagnose.select import Selector
+
+    d = truth.simulate_truth_full(1.0, 200.0, {}, seed=3, noise=0.02)
+    spec = load_model({"model": "full_car", "params": {**truth.FC_NOMINAL, "damping_front": "free",
+                                                       "damping_rear": "free"}})
+    D = Selector(_rec(d), spec, candidates=["tire_liftoff"], workers=1, max_effects=1).run()
+    t = [t for t in D.trials if t.name == "tire_liftoff"]
+    assert len(t) == 1 and not t[0].applicable and "never acts" in t[0].reason, D.trials
+    assert not [t for t in D.trials if t.applicable] and not D.added, D.trials

@@ -217,6 +217,24 @@ def spectral_z(e_before: np.ndarray, e_after: np.ndarray) -> float:
 NOT_SEPARABLE = "not separable on this record"
 RHO_SEPARABLE = 0.95  # two parameters whose estimates correlate more than this are not separable (collinear)
 LONG = 30000  # a training part longer than this (samples) is screened on part of it
+# a placement (full car: an axle, a corner) is fitted only when its parent lowered the training BIC by more than
+# this (very strong evidence on Kass and Raftery's scale, 2·ln BF > 10) and its size is distinguishable from zero:
+# tire lift-off (no size, nothing lifts off) lowered it by −0.0 and asymmetric damping of zero size by −12 on the
+# full car's speed record, and each set off 6–8 placement fits of nothing
+PLACEMENT_BIC = 10.0
+
+
+def placement_refused(parent: "Trial | None") -> str:
+    """Why a placement is not fitted after its parent's trial in the same round ("" when it is: the parent was
+    fitted, lowered the training BIC by more than :data:`PLACEMENT_BIC`, and its size is distinguishable from
+    zero)."""
+    if parent is None or not parent.applicable or not np.isfinite(parent.d_bic):
+        return "was not fitted"
+    if parent.zero_size:
+        return "has a size indistinguishable from zero"
+    if not parent.d_bic < -PLACEMENT_BIC:
+        return f"did not lower the training BIC by more than {PLACEMENT_BIC:g} (ΔBIC {parent.d_bic:+.1f})"
+    return ""
 
 
 def default_workers() -> int:
@@ -250,6 +268,7 @@ class Trial:
     seconds: float = 0.0
     replaces: list = field(default_factory=list)  # earlier fitted physics this candidate drove to zero (_replaced)
     screened: dict | None = None  # the evidence on the screening window, when the trial was judged again on the whole
+    zero_size: bool = False  # every size of the effect indistinguishable from zero (gate (f))
 
     def as_dict(self):
         return {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in self.__dict__.items()}
@@ -493,6 +512,7 @@ class Selector:
                 groups.setdefault(key, []).append(
                     (n, not (abs(fr.params[n] - ref) > 2.0 * fr.std.get(n, np.inf))))
         zero = [n for members in groups.values() if all(z for _, z in members) for n, _ in members]
+        tr.zero_size = bool(zero)
         # a replacement: earlier fitted physics driven to zero by the newcomer (both kept only when separable)
         tr.replaces = self._replaced(cur_screen, fr, [e if isinstance(e, str) else e[0] for e in size_names])
         unsep = [r for r in tr.replaces if not (r["separable"] and z > self.z_min)]
@@ -663,7 +683,7 @@ class Selector:
         e_screen = self._test_errors(cur_screen) if bs < b else e_cur
         tried_pairs = set()
 
-        def attempt(cands, rnd, current_spec, current, cur_screen, e_cur, starts_from=()):
+        def attempt(cands, rnd, current_spec, current, cur_screen, e_cur, starts_from=(), parent=None):
             name = "+".join(c.name for c in cands)
             tr = Trial(name, rnd, True)
             t1 = time.perf_counter()
@@ -675,6 +695,24 @@ class Selector:
                 starts = st if starts is None else [s0 + s1[len(s0):] for s0 in starts for s1 in st[:1]]
             for fr0 in starts_from:  # a pair starts from each member's own fit too
                 starts.append([fr0.P.get(f.name, f.init) for f in spec_c.free])
+            if len(spec_c.free) == len(current_spec.free):
+                # an effect with nothing to fit (tire lift-off) that never acts on this record leaves the model's
+                # outputs as they are, to the bit: its fit would be the current model's (ΔBIC −0.0 on the full
+                # car's speed record, 18 s of refitting the dampings for nothing there, and more before the
+                # placement rule)
+                same = np.array_equal(self.prob.simulate(spec_c, current.P, 0, bs),
+                                      self.prob.simulate(current_spec, current.P, 0, bs))
+                if same:
+                    tr.applicable, tr.reason = False, "never acts on this record (the outputs are unchanged)"
+                    tr.seconds = time.perf_counter() - t1
+                    return tr, f"  round {rnd} {name:<36} {tr.reason}", None
+            if parent is not None:
+                # a placement starts from its parent's fit alone (the same effect on more corners, fitted in this
+                # round: its multi-start has already chosen the branch, e.g. which bump stops engage)
+                pname, pfr = parent
+                own = f"{cands[0].name}."
+                starts = [[pfr.P.get(f"{pname}.{f.name[len(own):]}" if f.name.startswith(own) else f.name, f.init)
+                           for f in spec_c.free]]
             try:
                 fr = fit(self.prob, spec_c, a, bs, starts=[np.array(s0, float) for s0 in starts], max_nfev=25)
             except RuntimeError as err:
@@ -712,10 +750,12 @@ class Selector:
             prev = {t.name: t for t in trials if t.round == rnd - 1}
             in_model = {c.name for cs, _, _ in added for c in cs}
             # nested placements (the full car): a candidate with a parent placement is tried after it, and only
-            # when the parent lowered the training BIC in this round (an effect on the front corners lowers it
-            # everywhere too, as a weaker effect on all four); the others first, in one batch
+            # when the parent lowered the training BIC in this round by more than PLACEMENT_BIC with a size
+            # distinguishable from zero (an effect on the front corners lowers it everywhere too, as a weaker
+            # effect on all four), from the parent's fit; the others first, in one batch
             results, this_round = [], {}
             stage = [c for c in lib if c.parent is None]
+            parents = {}  # a placement's (parent name, parent's fit in this round): its start
             # a candidate that did not lower the training BIC last round is pruned, unless the current model is
             # still far above the floor: an effect masked by another (friction fitted to zero while a missing
             # lag dominated; the blind battery's two_lag_coulomb) gets another chance once that one is in
@@ -738,20 +778,23 @@ class Selector:
                         order.append(Trial(cand.name, rnd, False, why))
                         continue
                     order.append(len(jobs))
-                    jobs.append((([cand], rnd, current_spec, current, cur_screen, e_screen), {}))
+                    jobs.append((([cand], rnd, current_spec, current, cur_screen, e_screen),
+                                 {"parent": parents.get(cand.name)}))
                 n0 = len(trials)
                 results += attempts(jobs, order)
                 this_round.update({t.name: t for t in trials[n0:]})
                 done, stage = {c.name for c in stage}, []
+                fits = {r[2].name: r[3] for r in results}
                 for cand in lib:  # (the library lists a placement after its parent)
                     if cand.parent is None or cand.parent not in done:
                         continue
-                    pt = this_round.get(cand.parent)
-                    if pt is not None and pt.applicable and np.isfinite(pt.d_bic) and pt.d_bic < 0:
+                    why = placement_refused(this_round.get(cand.parent))
+                    if not why and cand.parent in fits:
                         stage.append(cand)
+                        parents[cand.name] = (cand.parent, fits[cand.parent])
                     elif cand.name not in in_model:
-                        trials.append(Trial(cand.name, rnd, False, f"not tried: {cand.parent} did not lower the "
-                                                                   f"training BIC in this round"))
+                        trials.append(Trial(cand.name, rnd, False, f"not tried: {cand.parent} {why or 'was not fitted'}"
+                                                                   f" in this round"))
                         this_round[cand.name] = trials[-1]
                         done.add(cand.name)  # its own placements are not tried either
             kept = [r for r in results if r[2].kept]
