@@ -706,18 +706,28 @@ class Selector:
                     tr.applicable, tr.reason = False, "never acts on this record (the outputs are unchanged)"
                     tr.seconds = time.perf_counter() - t1
                     return tr, f"  round {rnd} {name:<36} {tr.reason}", None
+            first = None
             if parent is not None:
-                # a placement starts from its parent's fit alone (the same effect on more corners, fitted in this
-                # round: its multi-start has already chosen the branch, e.g. which bump stops engage)
+                # a placement starts from its parent's fit (the same effect on more corners, fitted in this round:
+                # its multi-start has already chosen the branch, e.g. which bump stops engage); its own declared
+                # starts only when that fit does not lower the training cost (a cubic spring fitted on all four
+                # corners, put on the rear alone, made the car diverge and the fit stopped there: ΔBIC +96 051)
                 pname, pfr = parent
                 own = f"{cands[0].name}."
-                starts = [[pfr.P.get(f"{pname}.{f.name[len(own):]}" if f.name.startswith(own) else f.name, f.init)
-                           for f in spec_c.free]]
-            try:
-                fr = fit(self.prob, spec_c, a, bs, starts=[np.array(s0, float) for s0 in starts], max_nfev=25)
-            except RuntimeError as err:
-                tr.applicable, tr.reason = False, f"fit failed: {err}"
-                return tr, None, None
+                first = [[pfr.P.get(f"{pname}.{f.name[len(own):]}" if f.name.startswith(own) else f.name, f.init)
+                          for f in spec_c.free]]
+            fr = None
+            for st in ([first] if first is not None else []) + [starts]:
+                try:
+                    f1 = fit(self.prob, spec_c, a, bs, starts=[np.array(s0, float) for s0 in st], max_nfev=25)
+                except RuntimeError as err:
+                    if fr is None and st is starts:
+                        tr.applicable, tr.reason = False, f"fit failed: {err}"
+                        return tr, None, None
+                    continue
+                fr = f1 if fr is None or f1.cost < fr.cost else fr
+                if fr.cost < cur_screen.cost:
+                    break
             tr.params = {k: v for k, v in fr.params.items() if k not in current.params}
             self._judge(tr, fr, cur_screen, e_cur, floor_n, sizes)
             tr.seconds = time.perf_counter() - t1
