@@ -231,7 +231,24 @@ def test_report_html_from_disk(driver, quarter_run, shots):
     (shots / f"report_{model}_page.png").write_bytes(full)
 
 
+def settled_screenshot(d, timeout: float = 30.0) -> bytes:
+    """A screenshot once the page has stopped changing (two in a row alike): the frame last sent is drawn."""
+    png = d.get_screenshot_as_png()
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        time.sleep(0.2)
+        again = d.get_screenshot_as_png()
+        if np.abs(central(png_array(again), 0.8) - central(png_array(png), 0.8)).mean() < 0.5:
+            return again
+        png = again
+    return png
+
+
 def test_live_viewer_streams_to_the_browser(driver, shots):
+    """A run streams its frames to the browser while it runs.  The run is held (a log hook after the viewer's)
+    at two simulated times, before the bump and on it, until the browser shows the frame last sent, so the two
+    pictures are of known times whatever the machine's load (screenshots 0.15 s and 0.45 s of wall time after
+    the start failed under load: the run, which may first compile its loop, had not begun, or had ended)."""
     from suspension_sim.viewer import attach_live_viewer
 
     sc = parse_scenario({"name": "live", "vehicle": {"model": "quarter_car"},
@@ -239,29 +256,55 @@ def test_live_viewer_streams_to_the_browser(driver, shots):
                                   "speed": 10}, "sim": {"duration": 1.2, "log_dt": 0.002}})
     sim = Simulation([sc])
     view = attach_live_viewer(sim, rate=1.0, fps=30)
+    stops = [(t, threading.Event(), threading.Event()) for t in (0.1, 0.5)]  # (time, reached, go on)
+
+    def hold(logger, j, t):
+        if stops and view._last_t >= stops[0][0]:
+            _, reached, go = stops.pop(0)
+            reached.set()
+            go.wait(300)
+
+    sim.log_hooks.append(hold)
+    events = list(stops)
+    out: dict = {}
+
+    def run():
+        try:
+            out["result"] = sim.run()[0]
+        except BaseException as e:  # pragma: no cover - reported below
+            out["error"] = e
+
+    th = threading.Thread(target=run)
     try:
         assert view.server.clients() == 0
         driver.get(view.server.web_url)
-        assert view.server.wait_for_browser(20), "the browser did not connect to the live viewer"
+        assert view.server.wait_for_browser(60), "the browser did not connect to the live viewer"
         t0 = time.monotonic()
-        while time.monotonic() - t0 < 20:  # the scene arrives over the websocket
+        while time.monotonic() - t0 < 60:  # the scene arrives over the websocket
             if body_mask(central(png_array(driver.get_screenshot_as_png()), 0.6)).sum() > 400:
                 break
             time.sleep(0.2)
-        th = threading.Thread(target=sim.run)
         th.start()
         pics, shown = [], []
-        for k, wait in enumerate((0.15, 0.3)):
-            time.sleep(wait)
+        for k, (_, reached, go) in enumerate(events):
+            assert reached.wait(600), f"the run did not reach t = {events[k][0]} s: {out.get('error')!r}"
             shown.append(view._last_t)  # simulated time of the last frame sent
-            png = driver.get_screenshot_as_png()
+            png = settled_screenshot(driver)
             (shots / f"live_{k}.png").write_bytes(png)
             img = png_array(png)
             assert_not_blank(img, "live")
             assert_car_in_view(img, "live")
             pics.append(central(img, 0.8))
-        th.join(30)
+            go.set()
+        th.join(300)
+        assert not th.is_alive() and "error" not in out, out.get("error")
         assert view.sent_frames >= 30 and shown[1] > shown[0]
-        assert (np.abs(pics[0] - pics[1]).sum(axis=2) > 30).mean() > 0.002
+        ts = out["result"].ts
+        z = np.interp(shown, ts["t"].to_numpy(), ts["body_z"].to_numpy())
+        assert z[1] - z[0] > 0.02, z  # the body moved between the two frames shown...
+        assert (np.abs(pics[0] - pics[1]).sum(axis=2) > 30).mean() > 0.002  # ...and the picture with it
     finally:
+        for _, _, go in events:
+            go.set()
+        th.join(60) if th.is_alive() else None
         view.server.close()

@@ -3,6 +3,7 @@ a scale from the data, the noise floor while the residual still holds model erro
 an effect that acts rarely.  Records come from the project's truth generator (diagnose/truth.py)."""
 from __future__ import annotations
 
+import functools
 import warnings
 
 import numpy as np
@@ -175,9 +176,10 @@ def test_the_top_band_floor_of_a_short_record_is_not_biased_low():
 
 
 # ------------------------------------------------------------------ the floor of a record with dry friction
+@functools.lru_cache(maxsize=None)
 def _friction_record(seed, force, duration=5.0):
     """A quarter car with Coulomb friction (truth.py: tanh(v/2 mm/s)), body acceleration and travel with 2 %
-    white noise; returns the truth dict."""
+    white noise; returns the truth dict (read only: the two tests below share the seed-1 record)."""
     return truth.simulate_truth("quarter_car", duration, 1000, {"coulomb_friction": {"force": force}}, seed=seed,
                                 road_rms=0.01, noise=0.02, outputs=["body_acc", "susp_travel"])
 

@@ -96,3 +96,25 @@ def test_psd_comparison_peaks_at_the_sine_frequency():
 
     xw, yw = ax1.get_lines()[0].get_data()
     np.testing.assert_allclose(yw, y * iso2631_weighting(x) ** 2, rtol=1e-12)
+
+
+def test_runs_with_controller_and_actuator_signals_get_their_figures(tmp_path):
+    """Runs logging actuator states (act.*) or controller signals (ctrl.*) also get the displacements, the
+    actuator states and the controller signals, a panel per channel, runs overlaid; a run without them does not."""
+    t = np.arange(2000) / 1000.0
+    df = pd.DataFrame({"t": t, "body_z": 0.01 * np.sin(2 * np.pi * t), "wheel_z": 0.002 * np.sin(9 * t),
+                       "body_acc": np.sin(7 * t), "act.spool": np.cos(3 * t), "ctrl.err": 0.1 * t,
+                       "ctrl.theta.0": np.tanh(t)})
+    info = {"suffixes": [""], "corners": ["single"]}
+    a = Result(scenario=None, timeseries=df, info=info)
+    b = Result(scenario=None, timeseries=df[["t", "body_z", "body_acc", "ctrl.err"]], info=info)
+    written = {p.name: p for p in plot_run({"a": a, "b": b}, tmp_path)}
+    signals = {"displacements.png", "actuator_states.png", "controller_signals.png"}
+    assert signals <= set(written)
+    for k in signals:
+        _check_png(written[k])
+    h = {k: imread(written[k]).shape[0] for k in signals}
+    assert h["controller_signals.png"] > 1.5 * h["actuator_states.png"]  # two panels against one
+    plain = {p.name for p in plot_run({"b": Result(scenario=None, timeseries=df[["t", "body_z", "body_acc"]],
+                                                   info=info)}, tmp_path / "plain")}
+    assert not plain & signals
