@@ -256,3 +256,34 @@ def test_shared_parameter_rows_and_logged_tables():
     assert kept.tolist() == [[3, 9], [4, 5]] and src.tolist() == [11, 13]
     kept, (src,) = _logged(np.array([9, 2, 9]), 9, np.arange(3))
     assert kept.tolist() == [2] and src.tolist() == [1]
+
+
+def test_a_read_only_road_chunk_runs_the_loop_compiled_for_a_writable_one(monkeypatch):
+    """numba compiles a function once per argument type, and a read-only array is another type than a writable
+    one: the discrepancy workflow's one-car road (a broadcast view) compiled every loop it ran a second time
+    (1-3 min each under load).  The loop receives writable road chunks, so one signature serves both; the
+    read-only chunk gives the same run."""
+    from suspension_sim.compiled import loop as cl
+
+    used = []
+    monkeypatch.setattr(cl, "load_module", lambda *a, load=cl.load_module: used.append(load(*a)) or used[-1])
+    sc = parse_scenario({"name": "ro", "vehicle": {"model": "quarter_car"}, "sim": {"duration": 0.2},
+                         "road": {"type": "sine", "params": {"frequency": 3.0, "amplitude": 0.01}}})
+    ref = Simulation([sc]).run()[0]
+    sim = Simulation([sc])
+    chunk = sim.road_chunk
+
+    def read_only(k0, k1):
+        out = []
+        for a in chunk(k0, k1):
+            a = a.view()
+            a.flags.writeable = False
+            out.append(a)
+        return tuple(out)
+
+    sim.road_chunk = read_only
+    assert not read_only(0, 10)[0].flags.writeable
+    res = sim.run()[0]
+    assert len(used) == 2 and used[0] is used[1]
+    assert len(used[0].loop.signatures) == 1, used[0].loop.signatures
+    _assert_same(ref, res, rel=0)

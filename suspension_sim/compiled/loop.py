@@ -860,6 +860,9 @@ def run_steps(sim, mode: str, progress=None, logger=None):
         k1r = min(k_chunk0 + chunk, sim.n_steps)
         # step-major (step, car, corner): one step's road for all cars is contiguous
         chunks = [np.ascontiguousarray(a.transpose(1, 0, 2), dtype=np.float64) for a in sim.road_chunk(k_chunk0, k1r)]
+        # writable, always: a read-only chunk (diagnose's one-car road is a broadcast view) is another argument type
+        # to numba, which compiled the whole loop a second time for it (1-3 min under load)
+        chunks = [c if c.flags.writeable else c.copy() for c in chunks]
         road_z, road_zd = chunks[0], chunks[1]
         road_zdd = chunks[2] if sim.rk4 else road_z  # RK4: the plates' acceleration (unused otherwise)
         if sim.maneuver is not None:  # the manoeuvre's pitch/roll loads of the chunk's steps
