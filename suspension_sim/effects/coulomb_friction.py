@@ -35,12 +35,6 @@ class CoulombFrictionParams(Params):
         return self
 
 
-@numba.njit(cache=True, inline="always")
-def _lncosh(x):
-    a = abs(x)
-    return a + np.log1p(np.exp(-2.0 * a)) - 0.6931471805599453
-
-
 @numba.njit(cache=True)
 def _tanh_step_mean(Fc, w0, w1, g):
     """The tanh law's mean force over one step (``step_force: mean``): the F with
@@ -50,6 +44,14 @@ def _tanh_step_mean(Fc, w0, w1, g):
     changes sign on [−F_c, F_c]: Newton's method, kept inside the bracket by bisection."""
     if not Fc > 0.0:
         return 0.0
+    # sliding: the ramp stays where tanh is 1 to double precision (tanh(19) = 1 − 6e-17) whatever F in
+    # [−F_c, F_c] is (the end rate w1 + g·F lies within w1 ± g·F_c); most steps of a ride, at no cost
+    if w0 > 19.0 and w1 - g * Fc > 19.0:
+        return -Fc
+    if w0 < -19.0 and w1 + g * Fc < -19.0:
+        return Fc
+    a0 = abs(w0)
+    L0 = a0 + np.log1p(np.exp(-2.0 * a0))  # log cosh(w0) + log 2
     lo = -Fc
     hi = Fc
     F = -Fc * np.tanh(0.5 * (w0 + w1))
@@ -60,18 +62,23 @@ def _tanh_step_mean(Fc, w0, w1, g):
             m = np.tanh(0.5 * (w0 + w))
             dm = 0.5 * (1.0 - m * m)
         else:
-            m = (_lncosh(w) - _lncosh(w0)) / d
-            dm = (np.tanh(w) - m) / d  # d(mean)/dw at the ramp's end
+            a = abs(w)
+            e = np.exp(-2.0 * a)
+            th = (1.0 - e) / (1.0 + e)
+            m = (a + np.log1p(e) - L0) / d
+            dm = ((th if w >= 0.0 else -th) - m) / d  # d(mean)/dw at the ramp's end
         r = F + Fc * m
         if r > 0.0:
             hi = F
-        else:
+        elif r < 0.0:
             lo = F
+        else:
+            return F
         Fn = F - r / (1.0 + Fc * dm * g)
-        if not (lo < Fn < hi):
-            Fn = 0.5 * (lo + hi)
         if abs(Fn - F) <= 1e-12 * Fc:
             return Fn
+        if not (lo < Fn < hi):
+            Fn = 0.5 * (lo + hi)
         F = Fn
     return F
 
