@@ -197,9 +197,10 @@ def test_reproduce_thesis(tmp_path):
     assert all(c4[k]["status"] in ("converged", "undecided") for k in q), c4
     assert all(abs(c4[k]["change"]) < 2 * c4[k]["change_se"] for k in q), c4  # within 2 s.e. of the difference
     cd = s["ch4_dirt"]["convergence"]
-    assert all(c["converged"] for k, c in cd.items() if k != "nodelay_ratio_res"), cd
+    assert all(c["converged"] for k, c in cd.items() if k != "nodelay_bias_60s"), cd
+    assert not cd["nodelay_bias_60s"]["converged"], cd  # the printed law's estimates drift with the step (the page)
     vd = _verdicts(d, "ch4_dirt")
-    assert vd[next(k for k in vd if "without the loop delay" in k)] == "partly"
+    assert vd[next(k for k in vd if "without the loop delay" in k)] == "not"
     k7 = s["ch7_braking"]["key"]
     assert k7["asym_mrac_bounce"] < 0.1 * k7["asym_passive_bounce"]
     assert k7["mrac_pitch_deg"] < 0.2 * k7["passive_dive_deg"]

@@ -158,29 +158,41 @@ def test_estimates_from_a_wrong_design_merge_with_the_right_start(load_step):
     assert abs(z["wrong_design_off"] - z["mrac"]) > 0.03
 
 
-def test_dirt_road_without_loop_delay_follows_reference_better_than_passive(request):
-    """The Ch. 4 printed law on the dirt road (exact stick-slip friction), without the 0.05 s loop delay: its
-    body-acceleration PSD is closer to the reference's than passive near and above resonance.  (With the
-    thesis's delay it is not — see docs/reproductions/vallurupalli_thesis_1996.md.)"""
+def test_dirt_road_without_loop_delay_ours_follows_reference_printed_law_overattenuates(request):
+    """The Ch. 4 laws on the dirt road (exact stick-slip friction) without the 0.05 s loop delay.  Body-acceleration
+    PSDs of the acceleration averaged over each 1 ms log step (from the logged velocity): ours (κ = 0.1, Q = 1e-4)
+    is closer to the reference than passive from 0.5 to 4 Hz; the printed law (κ = 1) is closer at 2–4 Hz but
+    attenuates far below the reference at 0.5–1 Hz (the page's verdict: not).  The logged instantaneous body_acc
+    (the last physics step's) reads that band ≥ 10× higher: the friction's ±1000 N switching, sampled at 1 kHz,
+    aliases into it (that sample made the printed law look closer than passive)."""
 
     def edit(raw):
         raw["sim"]["duration"] = 24.0
 
     out = run_variants(request.config.rootpath, "thesis_ch4_dirt", edit,
                        variants=("passive", "mrac_no_delay", "mrac_kappa_q_no_delay"))
-    ts_p = out["passive"]
-    fs = 1.0 / (ts_p.t[1] - ts_p.t[0])
-    sp = ts_p[ts_p.t > 8]
-    _, Pp = welch(sp["body_acc"].to_numpy(), fs=fs, nperseg=4096)
-    for v in ("mrac_no_delay", "mrac_kappa_q_no_delay"):  # the printed law and ours
-        sa = out[v][out[v].t > 8]
-        f, Pref = welch(sa["ctrl.ref_acc"].to_numpy(), fs=fs, nperseg=4096)
-        _, Pa = welch(sa["body_acc"].to_numpy(), fs=fs, nperseg=4096)
-        for lo, hi in ((0.5, 1.0), (1.0, 2.0), (2.0, 4.0)):
-            s = (f >= lo) & (f < hi)
-            da = abs(np.log10(np.mean(Pa[s]) / np.mean(Pref[s])))
-            dp = abs(np.log10(np.mean(Pp[s]) / np.mean(Pref[s])))
-            assert da < dp, (v, lo, hi, da, dp)
+    fs = 1.0 / (out["passive"].t[1] - out["passive"].t[0])
+
+    def psd(ts, col=None):
+        t = ts.t.to_numpy()
+        x = ts[col].to_numpy()[t > 8] if col else (np.diff(ts.body_vel.to_numpy()) * fs)[t[1:] > 8]
+        return welch(x, fs=fs, nperseg=4096)
+
+    f, Pref = psd(out["mrac_no_delay"], "ctrl.ref_acc")
+    _, Pp = psd(out["passive"])
+
+    def band(P, lo, hi):
+        s = (f >= lo) & (f < hi)
+        return np.mean(P[s]) / np.mean(Pref[s])
+
+    _, Pk = psd(out["mrac_kappa_q_no_delay"])
+    for lo, hi in ((0.5, 1.0), (1.0, 2.0), (2.0, 4.0)):  # ours: closer than passive in every band
+        assert abs(np.log10(band(Pk, lo, hi))) < abs(np.log10(band(Pp, lo, hi))), (lo, hi)
+    _, Pm = psd(out["mrac_no_delay"])
+    assert abs(np.log10(band(Pm, 2.0, 4.0))) < abs(np.log10(band(Pp, 2.0, 4.0)))
+    assert band(Pm, 0.5, 1.0) < 0.1 and abs(np.log10(band(Pm, 0.5, 1.0))) > abs(np.log10(band(Pp, 0.5, 1.0)))
+    _, Pi = psd(out["mrac_no_delay"], "body_acc")
+    assert band(Pi, 0.5, 1.0) > 10 * band(Pm, 0.5, 1.0)
 
 
 def test_stiffness_drift_mrac_holds_level_passive_sags(request):
