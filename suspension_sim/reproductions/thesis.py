@@ -631,8 +631,10 @@ def ch4_load_step(ctx) -> ItemOutput:
              "The wrong design's remaining Θ gap at 60 s is compared against the initial gap (the claim is the "
              "fraction of the initial distance closed): it is the small difference of two Θ trajectories that each "
              "travel ≈ 5 (scaled) and converge at first order (wrong/right_theta_travel_60s, each against itself).  "
-             "The wrong design's level and following are not converged: from 0.125 to 0.016 ms they wander by 1.7 mm "
-             "and 2.3 mm (3 % and 8 %; the right start's converge), see the page."]
+             "RK4 at 0.0625 ms: the printed law (κ = 1) cancels the sampling zero of its design model near z = −1, and "
+             "implicitfast's first-order integration of the held force moved the rig's own zero by 2·dt/T, so the wrong "
+             "design's level and following wandered with the step (−50.4, −49.1, −48.7, −49.3 mm at 0.125 … 0.016 ms); "
+             "RK4 integrates the held force exactly (the page)."]
     return ItemOutput(claims, key=key, figure=fig, notes=notes, tables=tables)
 
 
