@@ -27,7 +27,7 @@ import numpy as np
 
 from . import buffers
 from .actuators.base import ActuatorContext
-from .components import stack_params, validate_params
+from .components import stack_params, validate_many, validate_params
 from .config import EFFECT_PREFIX, Scenario, effect_labels, effect_variation_target
 from .controllers.base import ControlContext
 from .effects.base import EffectContext
@@ -230,8 +230,8 @@ class System:
             if ecls.target == "tire" and not P.has_tire:
                 raise ScenarioError(f"effect '{ecfg.type}' acts on the tire, and model '{sc0.vehicle.model}' has none",
                                     source=source, field=f"vehicle.effects.{i}.type")
-            plist = [validate_params(ecls.Params, s.vehicle.effects[i].params, f"vehicle.effects.{i}.params", source)
-                     for s in self.scenarios]
+            plist = validate_many(ecls.Params, [s.vehicle.effects[i].params for s in self.scenarios],
+                                  f"vehicle.effects.{i}.params", source)
             ctx = EffectContext(n_cars=n, corners=[self.geom.corner_names[c] for c in sel], dt=self.dt,
                                 static_suspension_force=P.static_susp[:, sel], static_tire_force=P.static_tire[:, sel],
                                 spring_stiffness=ks[:, sel], damping=cs[:, sel], tire_stiffness=kt[:, sel],
@@ -249,8 +249,8 @@ class System:
 
         # actuator --------------------------------------------------------------------------------------
         acls = ACTUATORS.get(sc0.actuator.type, field="actuator.type", source=source)
-        ap = stack_params([validate_params(acls.Params, s.actuator.params, "actuator.params", source)
-                           for s in self.scenarios], nc)
+        ap = stack_params(validate_many(acls.Params, [s.actuator.params for s in self.scenarios], "actuator.params",
+                                        source), nc)
         self.actuator = acls(ap, ActuatorContext(n, nc, self.dt, self.control_dt, P.static_susp.copy()))
 
         # roads ----------------------------------------------------------------------------------------
@@ -309,14 +309,14 @@ class System:
         self.sensors: list[SensorChannel] = []
         for i, scfg in enumerate(sc0.sensors):
             scls = SENSORS.get(scfg.type, field=f"sensors.{i}.type", source=source)
-            sp_ = stack_params([validate_params(scls.Params, s.sensors[i].params, f"sensors.{i}.params", source)
-                                for s in self.scenarios], nc)
+            sp_ = stack_params(validate_many(scls.Params, [s.sensors[i].params for s in self.scenarios],
+                                             f"sensors.{i}.params", source), nc)
             self.sensors.append(SensorChannel(scfg, scls(sp_, sctx), self.control_dt, self.sensor_rng(i)))
 
         # controller ------------------------------------------------------------------------------------
         ccls = CONTROLLERS.get(sc0.controller.type, field="controller.type", source=source)
-        cp = stack_params([validate_params(ccls.Params, s.controller.params, "controller.params", source)
-                           for s in self.scenarios], nc)
+        cp = stack_params(validate_many(ccls.Params, [s.controller.params for s in self.scenarios],
+                                        "controller.params", source), nc)
         vparams = stack_params(P.params, nc)
         self.full_state = sc0.controller.full_state
         self.cctx = ControlContext(

@@ -15,7 +15,7 @@ import mujoco
 import numpy as np
 from dm_control import mjcf
 
-from .components import validate_params
+from .components import validate_many, validate_params
 from .errors import ScenarioError
 from .registry import VEHICLES
 
@@ -59,7 +59,7 @@ class Plant:
         if len(models) != 1:
             raise ScenarioError("an ensemble must use one vehicle model", source=source, field="vehicle.model")
         self.vcls = VEHICLES.get(vehicle_cfgs[0].model, field="vehicle.model", source=source)
-        self.params = [validate_params(self.vcls.Params, v.params, "vehicle.params", source) for v in vehicle_cfgs]
+        self.params = validate_many(self.vcls.Params, [v.params for v in vehicle_cfgs], "vehicle.params", source)
         # the parameters each car was levelled with when they are not its own (vehicle.levelled_with), else None
         self.level = []
         for v, p in zip(vehicle_cfgs, self.params):
