@@ -33,7 +33,11 @@ class FreeParameter:
     parameter measures how strong the effect is (an effect whose sizes are indistinguishable from zero is
     pruned).  ``candidate``: the candidate's name when it is not the component's (actuators: one candidate
     per parameter); ``target``: where the value goes when it is not the component's parameter of that name
-    (``input.delay``: the measured force input is shifted in time)."""
+    (``input.delay``: the measured force input is shifted in time).  ``unseen`` (a multiple of ``scale``, at
+    most ``hi``): the value the fit leaves the parameter at when the fitted window does not determine it at all
+    (its Jacobian column is exactly zero: a stop the record never reaches), for a parameter whose effect only
+    weakens as it moves there (a gap), so that the model does not predict unseen data with an effect placed
+    wherever its start happened to be."""
 
     scale: str = "1"
     init: float = 0.0
@@ -43,6 +47,8 @@ class FreeParameter:
     size: bool = True
     candidate: str | None = None
     target: str | None = None
+    unseen: float | None = None  # where the parameter goes when the fitted window does not determine it
+
 
     def value(self, x: float, scales: dict) -> float:
         return float(x) * scale_of(self.scale, scales)

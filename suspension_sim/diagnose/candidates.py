@@ -74,7 +74,7 @@ def _free_params(prefix, decl: dict, sc: Scales):
         lo = -np.inf if fp.lo is None else fp.lo * u
         hi = np.inf if fp.hi is None else fp.hi * u
         fps.append(FreeParam(f"{prefix}{pn}" if fp.target is None else fp.target, fp.init * u, lo, hi, u,
-                             size=fp.size))
+                             size=fp.size, unseen=None if fp.unseen is None else fp.unseen * u))
     for k in range(nstart):
         starts.append([(fp.starts[k] if k < len(fp.starts) else fp.init) * scale_of(fp.scale, d)
                        for fp in decl.values()])

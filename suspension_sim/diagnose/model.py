@@ -52,6 +52,7 @@ class FreeParam:
     hi: float = np.inf
     scale: float = 1.0
     size: bool = False  # measures the strength of an added effect (pruned when indistinguishable from 0)
+    unseen: float | None = None  # the value when the fitted window does not determine it (FreeParameter.unseen)
 
 
 @dataclass

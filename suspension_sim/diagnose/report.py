@@ -319,8 +319,10 @@ def not_separable(D) -> list:
     from .select import NOT_SEPARABLE
 
     out = []
+    named = {c.name for c, _, _ in D.added}
     for t in D.trials:
-        if NOT_SEPARABLE in t.reason:
+        # a candidate named in the end (in a later round, or by an exchange) is not reported as held back
+        if NOT_SEPARABLE in t.reason and t.name.split(" in place of ")[0] not in named:
             for r in t.replaces:
                 if r.get("blocking"):
                     out.append({"candidate": t.name, "round": t.round, "parameter": r["parameter"],

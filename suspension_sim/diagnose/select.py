@@ -10,8 +10,9 @@ models.
    ``min_excess_drop`` (10 %) of the held-out error above the floor; (d) the held-out NRMSE falls by at
    least ``min_rel_drop`` (5 %); (e) **no output channel's held-out error rises by more than its noise
    floor** (a change that trades one channel for another is not a better model); (f) **its size is
-   distinguishable from zero** (every size parameter, e.g. a friction force, outside its 95 % interval
-   around zero); the parameters stay within their physical bounds by construction (the fit is bounded).
+   distinguishable from zero** (a single size parameter, e.g. a friction force, beyond 2 standard errors of
+   zero; several together by their joint covariance, :func:`size_zero`); the parameters stay within their
+   physical bounds by construction (the fit is bounded).
 4. The kept candidate with the lowest BIC is added, and the search repeats (up to ``max_effects``).
 5. **Beam over pairs**: when no single candidate is kept while the held-out error is still more than
    ``far`` (3) times the noise floor, the ``beam`` (4) candidates with the best training cost are tried
@@ -19,9 +20,16 @@ models.
    have lowered the training BIC alone, and a pair at least one member that alone lowered the held-out
    error (EMPS: the encoder's floor is tiny, so pairs were always tried, and every single of round 2 made
    the PULSES test worse: 6 pairs, most of a 25–34 min run, none kept).
-6. Backward check: an added effect is dropped again when the model refitted without it is not worse by BIC
+6. Exchange: when the forward search stops (nothing kept, or ``max_effects`` reached) while the held-out
+   error is still more than ``near`` (1.5) times the floor, each effect of the model is replaced in turn by
+   each of the ``beam`` best single candidates of round 1 (:meth:`Selector._exchange_pool`), and a
+   replacement that passes the same gate against the current model is made (at most ``max_swaps`` (2); the
+   forward search then goes on when there is room).  The forward search is greedy: an effect added early can
+   stand in for one that only shows once another is in (blind battery two_asym_cubic: a bump stop stood in
+   for the cubic spring while the asymmetric damping was missing, and nothing beside the two improved on them).
+7. Backward check: an added effect is dropped again when the model refitted without it is not worse by BIC
    and within ``min_rel_drop`` on held-out data.
-7. When the final held-out error is still far above the floor, the report says so: "unexplained: N× the
+8. When the final held-out error is still far above the floor, the report says so: "unexplained: N× the
    noise floor".
 
 Speed: when the training part is longer than ``LONG`` (30 000 samples: 30 s at 1 kHz; or 1.5 ×
@@ -214,6 +222,38 @@ def spectral_z(e_before: np.ndarray, e_after: np.ndarray) -> float:
     return gain / (2.0 * np.sqrt(var))
 
 
+ZERO_Z = 2.0  # a size within this many standard errors of zero is indistinguishable from it
+
+
+def size_zero(fr: FitResult, members: list) -> bool:
+    """Whether an effect's sizes ``members`` [(name, reference)] are together indistinguishable from their
+    references (zero for an effect's size, the stated value for a freed nominal parameter): one size within
+    ``ZERO_Z`` standard errors; several by the Wald statistic dᵀ·C⁻¹·d of their joint covariance C (Gauss–Newton)
+    below the χ² quantile of the same level (4.0 for one size).  One size at a time called an effect zero when
+    its sizes are each uncertain along a direction the model cannot see but not together: asymmetric damping
+    beside a free linear damping (c + c_comp and c + c_reb are what the record shows; moving all three by the
+    same amount changes nothing, so each of c_comp, c_reb has a huge error while their difference, the
+    asymmetry, is sharp: blind battery two_asym_cubic, c_comp 1273 / c_reb 2905 N·s/m "indistinguishable
+    from zero" in round 1 with ΔBIC −4287)."""
+    d = np.array([fr.params[n] - ref for n, ref in members], float)
+    sd = np.array([fr.std.get(n, np.inf) for n, _ in members], float)
+    single = [not (abs(di) > ZERO_Z * si) for di, si in zip(d, sd)]
+    if len(members) == 1 or not all(single):
+        return all(single)
+    names = [f.name for f in fr.spec.free]
+    if fr.corr is None or any(n not in names for n, _ in members) or not np.all(np.isfinite(sd)):
+        return True
+    idx = [names.index(n) for n, _ in members]
+    R = np.asarray(fr.corr, float)[np.ix_(idx, idx)]
+    if not np.all(np.isfinite(R)) or not np.all(sd > 0):
+        return True
+    C = R * np.outer(sd, sd)
+    from scipy.stats import chi2
+
+    w = float(d @ np.linalg.pinv(C) @ d)
+    return not w > chi2.ppf(chi2.cdf(ZERO_Z ** 2, 1), len(members))
+
+
 NOT_SEPARABLE = "not separable on this record"
 RHO_SEPARABLE = 0.95  # two parameters whose estimates correlate more than this are not separable (collinear)
 LONG = 30000  # a training part longer than this (samples) is screened on part of it
@@ -362,7 +402,8 @@ class Selector:
                  floors: dict | None = None, candidates: list[str] | None = None, max_effects: int = 3,
                  screen_samples: int = 8000, min_excess_drop: float = 0.10, z_min: float = 2.0,
                  min_rel_drop: float = 0.05, test_skip: int | None = None, log=None, workers: int | None = None,
-                 max_dt: float = 5e-4, beam: int = 4, far: float = 3.0, placements: bool = True):
+                 max_dt: float = 5e-4, beam: int = 4, far: float = 3.0, placements: bool = True,
+                 near: float = 1.5, max_swaps: int = 2):
         self.rec = rec
         self.spec = spec
         if rec.kind == "sdof":
@@ -391,6 +432,8 @@ class Selector:
         self.z_min = z_min
         self.beam = beam
         self.far = far
+        self.near = near
+        self.max_swaps = max_swaps
         self.placements = placements
         self.log = log or (lambda msg: None)
         self.workers = default_workers() if workers is None else max(1, int(workers))
@@ -509,9 +552,8 @@ class Selector:
             n, ref = (entry, 0.0) if isinstance(entry, str) else entry
             if n in fr.params:
                 key = (n.rpartition(".")[0] or n) if isinstance(entry, str) else ("parameter", n)
-                groups.setdefault(key, []).append(
-                    (n, not (abs(fr.params[n] - ref) > 2.0 * fr.std.get(n, np.inf))))
-        zero = [n for members in groups.values() if all(z for _, z in members) for n, _ in members]
+                groups.setdefault(key, []).append((n, ref))
+        zero = [n for members in groups.values() if size_zero(fr, members) for n, _ in members]
         tr.zero_size = bool(zero)
         # a replacement: earlier fitted physics driven to zero by the newcomer (both kept only when separable)
         tr.replaces = self._replaced(cur_screen, fr, [e if isinstance(e, str) else e[0] for e in size_names])
@@ -618,6 +660,17 @@ class Selector:
                 pairs.append((i, j))
         return members, pairs
 
+    def _exchange_pool(self, trials: list, lib: list, in_model: set) -> list:
+        """The candidates an exchange tries in place of an effect of the model: the ``beam`` single candidates
+        of round 1 (each alone against the calibrated nominal model) with the lowest training BIC among those
+        that lowered it and were not pruned as zero-size, less those in the model.  Round 1 is where each
+        effect shows what it explains alone; later rounds judge it beside effects that may stand in for it."""
+        byname = {c.name: c for c in lib}
+        ok = sorted([t for t in trials if t.round == 1 and t.applicable and t.name in byname
+                     and t.name not in in_model and np.isfinite(t.bic) and np.isfinite(t.d_bic) and t.d_bic < 0
+                     and not t.zero_size], key=lambda t: t.bic)
+        return [byname[t.name] for t in ok[:self.beam]]
+
     def _confirm(self, tr: Trial, fr: FitResult, current: FitResult, e_cur, floor_n, cands) -> bool:
         """A candidate kept on the screening window, refitted on the whole training part (``fr``), is judged
         again against the current whole-window model by the same gate.  The trial's evidence becomes the
@@ -683,8 +736,8 @@ class Selector:
         e_screen = self._test_errors(cur_screen) if bs < b else e_cur
         tried_pairs = set()
 
-        def attempt(cands, rnd, current_spec, current, cur_screen, e_cur, starts_from=(), parent=None):
-            name = "+".join(c.name for c in cands)
+        def attempt(cands, rnd, current_spec, current, cur_screen, e_cur, starts_from=(), parent=None, label=None):
+            name = label or "+".join(c.name for c in cands)
             tr = Trial(name, rnd, True)
             t1 = time.perf_counter()
             spec_c, starts = current_spec, None
@@ -754,95 +807,158 @@ class Selector:
                     done.append(r)
             return done
 
-        rnd = 0
-        while len(added) < self.max_effects:
-            rnd += 1
-            prev = {t.name: t for t in trials if t.round == rnd - 1}
-            in_model = {c.name for cs, _, _ in added for c in cs}
-            # nested placements (the full car): a candidate with a parent placement is tried after it, and only
-            # when the parent lowered the training BIC in this round by more than PLACEMENT_BIC with a size
-            # distinguishable from zero (an effect on the front corners lowers it everywhere too, as a weaker
-            # effect on all four), from the parent's fit; the others first, in one batch
-            results, this_round = [], {}
-            stage = [c for c in lib if c.parent is None]
-            parents = {}  # a placement's (parent name, parent's fit in this round): its start
-            # a candidate that did not lower the training BIC last round is pruned, unless the current model is
-            # still far above the floor: an effect masked by another (friction fitted to zero while a missing
-            # lag dominated; the blind battery's two_lag_coulomb) gets another chance once that one is in
-            # (the current model's held-out error and the floor stay the same through the round: the pair beam
-            # below asks the same question)
+        def exchange(rnd, current_spec, current, cur_screen, e_cur, e_screen, floor_n):
+            """One exchange round (:meth:`_exchange_pool`): each effect of the model replaced by each of the best
+            single candidates of round 1, fitted and judged against the current model by the same gate; returns
+            (the effect taken out, the candidates put in, their spec, trial, screened fit, fit) or None."""
             Ecur = float(np.sqrt(np.mean(e_cur ** 2)))
             fl = float(np.sqrt(np.mean(floor_n ** 2)))
-            far_now = Ecur > self.far * fl
-            while stage:
-                jobs, order = [], []
-                for cand in stage:
-                    if cand.name in in_model:
+            flat = [c for cs, _, _ in added for c in cs]
+            if not flat or not Ecur > self.near * fl:
+                return None
+            pool = self._exchange_pool(trials, lib, {c.name for c in flat})
+            jobs, outs = [], []
+            for out_c in flat:
+                spec_r = _with_fit(self.spec, nominal)
+                for cand in flat:
+                    if cand is not out_c:
+                        spec_r, _st = cand.augment(spec_r, sc)
+                for f in spec_r.free:
+                    if f.name in current.P:
+                        f.init = current.P[f.name]
+                        spec_r.P[f.name] = current.P[f.name]
+                for cand in pool:
+                    if cand.name.split("@")[0] == out_c.name.split("@")[0] or not cand.applies(spec_r, sc)[0]:
                         continue
-                    ok, why = cand.applies(current_spec, sc)
-                    pt = prev.get(cand.name)
-                    if (ok and not far_now and pt is not None and pt.applicable and np.isfinite(pt.d_bic)
-                            and pt.d_bic >= 0):
-                        ok, why = False, f"pruned: no training improvement in round {rnd - 1} (ΔBIC {pt.d_bic:+.1f})"
-                    if not ok:
-                        order.append(Trial(cand.name, rnd, False, why))
-                        continue
-                    order.append(len(jobs))
-                    jobs.append((([cand], rnd, current_spec, current, cur_screen, e_screen),
-                                 {"parent": parents.get(cand.name)}))
-                n0 = len(trials)
-                results += attempts(jobs, order)
-                this_round.update({t.name: t for t in trials[n0:]})
-                done, stage = {c.name for c in stage}, []
-                fits = {r[2].name: r[3] for r in results}
-                for cand in lib:  # (the library lists a placement after its parent)
-                    if cand.parent is None or cand.parent not in done:
-                        continue
-                    why = placement_refused(this_round.get(cand.parent))
-                    if not why and cand.parent in fits:
-                        stage.append(cand)
-                        parents[cand.name] = (cand.parent, fits[cand.parent])
-                    elif cand.name not in in_model:
-                        trials.append(Trial(cand.name, rnd, False, f"not tried: {cand.parent} {why or 'was not fitted'}"
-                                                                   f" in this round"))
-                        this_round[cand.name] = trials[-1]
-                        done.add(cand.name)  # its own placements are not tried either
-            kept = [r for r in results if r[2].kept]
-            if not kept and far_now and self.max_effects - len(added) >= 2:
-                # beam over pairs: the best candidates by training cost, two at a time (:meth:`_pairs`)
-                ok_res, pairs = self._pairs(results, tried_pairs)
-                self.log(f"  no single candidate kept at {Ecur / max(fl, 1e-12):.1f}× the noise floor: "
-                         f"pairs of {', '.join(r[2].name for r in ok_res)}"
-                         + ("" if pairs else " (no pair: no member lowers the held-out error alone)"))
-                jobs = [(([ok_res[i][0][0], ok_res[j][0][0]], rnd, current_spec, current, cur_screen, e_screen),
-                         {"starts_from": (ok_res[i][3], ok_res[j][3])}) for i, j in pairs]
-                kept += [r for r in attempts(jobs) if r[2].kept]
-            chosen = None
-            for cands, spec_c, tr, fr in sorted(kept, key=lambda r: r[2].bic):
+                    jobs.append((([cand], rnd, spec_r, current, cur_screen, e_screen),
+                                 {"label": f"{cand.name} in place of {out_c.name}"}))
+                    outs.append(out_c)
+            if not jobs:
+                return None
+            self.log(f"  exchange at {Ecur / max(fl, 1e-12):.1f}× the noise floor: "
+                     + ", ".join(sorted({c.name for c in pool})) + " in place of " + ", ".join(c.name for c in flat))
+            n0 = len(trials)
+            res = attempts(jobs)
+            by_trial = {id(t): outs[k] for k, t in enumerate(trials[n0:])}
+            for cands, spec_c, tr, fr in sorted([r for r in res if r[2].kept], key=lambda r: r[2].bic):
                 fs, fr = self._polish(spec_c, fr, a, bs, b)
                 if bs < b and not self._confirm(tr, fr, current, e_cur, floor_n, cands):
                     continue
-                chosen = (cands, spec_c, tr, fs, fr)
+                return by_trial[id(tr)], cands, spec_c, tr, fs, fr
+            return None
+
+        rnd = 0
+        swaps = 0
+        while True:
+            while len(added) < self.max_effects:
+                rnd += 1
+                prev = {t.name: t for t in trials if t.round == rnd - 1}
+                in_model = {c.name for cs, _, _ in added for c in cs}
+                # nested placements (the full car): a candidate with a parent placement is tried after it, and only
+                # when the parent lowered the training BIC in this round by more than PLACEMENT_BIC with a size
+                # distinguishable from zero (an effect on the front corners lowers it everywhere too, as a weaker
+                # effect on all four), from the parent's fit; the others first, in one batch
+                results, this_round = [], {}
+                stage = [c for c in lib if c.parent is None]
+                parents = {}  # a placement's (parent name, parent's fit in this round): its start
+                # a candidate that did not lower the training BIC last round is pruned, unless the current model is
+                # still far above the floor: an effect masked by another (friction fitted to zero while a missing
+                # lag dominated; the blind battery's two_lag_coulomb) gets another chance once that one is in
+                # (the current model's held-out error and the floor stay the same through the round: the pair beam
+                # below asks the same question)
+                Ecur = float(np.sqrt(np.mean(e_cur ** 2)))
+                fl = float(np.sqrt(np.mean(floor_n ** 2)))
+                far_now = Ecur > self.far * fl
+                while stage:
+                    jobs, order = [], []
+                    for cand in stage:
+                        if cand.name in in_model:
+                            continue
+                        ok, why = cand.applies(current_spec, sc)
+                        pt = prev.get(cand.name)
+                        if (ok and not far_now and pt is not None and pt.applicable and np.isfinite(pt.d_bic)
+                                and pt.d_bic >= 0):
+                            ok, why = False, f"pruned: no training improvement in round {rnd - 1} (ΔBIC {pt.d_bic:+.1f})"
+                        if not ok:
+                            order.append(Trial(cand.name, rnd, False, why))
+                            continue
+                        order.append(len(jobs))
+                        jobs.append((([cand], rnd, current_spec, current, cur_screen, e_screen),
+                                     {"parent": parents.get(cand.name)}))
+                    n0 = len(trials)
+                    results += attempts(jobs, order)
+                    this_round.update({t.name: t for t in trials[n0:]})
+                    done, stage = {c.name for c in stage}, []
+                    fits = {r[2].name: r[3] for r in results}
+                    for cand in lib:  # (the library lists a placement after its parent)
+                        if cand.parent is None or cand.parent not in done:
+                            continue
+                        why = placement_refused(this_round.get(cand.parent))
+                        if not why and cand.parent in fits:
+                            stage.append(cand)
+                            parents[cand.name] = (cand.parent, fits[cand.parent])
+                        elif cand.name not in in_model:
+                            trials.append(Trial(cand.name, rnd, False, f"not tried: {cand.parent} {why or 'was not fitted'}"
+                                                                       f" in this round"))
+                            this_round[cand.name] = trials[-1]
+                            done.add(cand.name)  # its own placements are not tried either
+                kept = [r for r in results if r[2].kept]
+                if not kept and far_now and self.max_effects - len(added) >= 2:
+                    # beam over pairs: the best candidates by training cost, two at a time (:meth:`_pairs`)
+                    ok_res, pairs = self._pairs(results, tried_pairs)
+                    self.log(f"  no single candidate kept at {Ecur / max(fl, 1e-12):.1f}× the noise floor: "
+                             f"pairs of {', '.join(r[2].name for r in ok_res)}"
+                             + ("" if pairs else " (no pair: no member lowers the held-out error alone)"))
+                    jobs = [(([ok_res[i][0][0], ok_res[j][0][0]], rnd, current_spec, current, cur_screen, e_screen),
+                             {"starts_from": (ok_res[i][3], ok_res[j][3])}) for i, j in pairs]
+                    kept += [r for r in attempts(jobs) if r[2].kept]
+                chosen = None
+                for cands, spec_c, tr, fr in sorted(kept, key=lambda r: r[2].bic):
+                    fs, fr = self._polish(spec_c, fr, a, bs, b)
+                    if bs < b and not self._confirm(tr, fr, current, e_cur, floor_n, cands):
+                        continue
+                    chosen = (cands, spec_c, tr, fs, fr)
+                    break
+                if chosen is None:
+                    break
+                cands, spec_c, tr, fs, fr = chosen
+                added.append((cands, fr, tr))
+                current_spec = _with_fit(spec_c, fr)
+                current = fr
+                cur_screen = fs
+                e_cur = self._test_errors(current)
+                e_screen = self._test_errors(cur_screen) if bs < b else e_cur
+                self.log(f"added {tr.name}: {fr.params}")
+                # the floor from the best model's residual: while the residual held model error the floor was the
+                # top-band one (coloured noise reads low there: suv_bumps' round 2 ran its pair beam at "4.3× the
+                # floor" with the stop already in and a residual that was noise)
+                floor_was = floor_n
+                self.recolour(floors, current)
+                floor_n = np.array([floors[c]["nrmse"] for c in self.prob.channels])
+                if not np.array_equal(floor_n, floor_was):
+                    self.log("  noise floor from the residual of the model so far: " + ", ".join(
+                        f"{c} {floors[c]['value']:.4g}" for c in self.prob.channels))
+            # exchange: the forward search is greedy, and an effect added early can stand in for one that only
+            # shows once another is in (blind battery two_asym_cubic: a stop stood in for the cubic spring while
+            # the asymmetric damping was missing, then nothing beside the stop and the damping improved on them)
+            if swaps >= self.max_swaps:
                 break
-            if chosen is None:
+            sw = exchange(rnd + 1, current_spec, current, cur_screen, e_cur, e_screen, floor_n)
+            if sw is None:
                 break
-            cands, spec_c, tr, fs, fr = chosen
-            added.append((cands, fr, tr))
+            rnd += 1
+            swaps += 1
+            out_c, cands, spec_c, tr, fs, fr = sw
+            added = [([c for c in cs if c is not out_c], current, t) for cs, _, t in added]
+            added = [(cs, fr, t) for cs, _, t in added if cs] + [(list(cands), fr, tr)]
             current_spec = _with_fit(spec_c, fr)
             current = fr
             cur_screen = fs
             e_cur = self._test_errors(current)
             e_screen = self._test_errors(cur_screen) if bs < b else e_cur
-            self.log(f"added {tr.name}: {fr.params}")
-            # the floor from the best model's residual: while the residual held model error the floor was the
-            # top-band one (coloured noise reads low there: suv_bumps' round 2 ran its pair beam at "4.3× the
-            # floor" with the stop already in and a residual that was noise)
-            floor_was = floor_n
+            self.log(f"exchanged {out_c.name} for {cands[0].name}: {fr.params}")
             self.recolour(floors, current)
             floor_n = np.array([floors[c]["nrmse"] for c in self.prob.channels])
-            if not np.array_equal(floor_n, floor_was):
-                self.log("  noise floor from the residual of the model so far: " + ", ".join(
-                    f"{c} {floors[c]['value']:.4g}" for c in self.prob.channels))
         # backward check
         removed = True
         while removed and sum(len(cs) for cs, _, _ in added) >= 2:
