@@ -41,7 +41,7 @@ MODULES = {
     "suspension_sim.compiled.views": BASE, "suspension_sim.buffers": BASE,
     "suspension_sim.maneuvers": COMPONENTS, "suspension_sim.maneuvers_dlc": COMPONENTS,
     "suspension_sim.config": CONFIG,
-    "suspension_sim.plant": BUILD, "suspension_sim.build": BUILD,
+    "suspension_sim.plant": BUILD, "suspension_sim.build": BUILD, "suspension_sim.statics": BUILD,
     "suspension_sim.loop": RUN, "suspension_sim.divergence": RUN, "suspension_sim.compiled.loop": RUN, "suspension_sim.compiled.testing": RUN,
     "suspension_sim.log": LOG,
     "suspension_sim.results": METRICS, "suspension_sim.stream": METRICS,

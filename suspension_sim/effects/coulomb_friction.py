@@ -156,7 +156,6 @@ class CoulombFriction(Effect):
 
     Params = CoulombFrictionParams
     # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
-    # (the smooth law with its v_eps fitted: a fit needs a force that is differentiable in its parameters)
     # (the smooth law with its v_eps fitted: a fit needs a force that is differentiable in its parameters;
     # its mean over the step: the coarse steps of a search stay accurate at rate reversals, see fit_step)
     free_parameters = {"force": FreeParameter("F", init=0.05),
