@@ -847,6 +847,15 @@ class Selector:
                 return by_trial[id(tr)], cands, spec_c, tr, fs, fr
             return None
 
+        def adopt(spec_c, fr, fs):
+            """The model ``fr`` (screened as ``fs``) becomes the current one: (its spec, fit, screening fit, test
+            errors on the whole and screening windows, the per-channel floor re-estimated from its residual)."""
+            e_c = self._test_errors(fr)
+            e_s = self._test_errors(fs) if bs < b else e_c
+            self.recolour(floors, fr)
+            return (_with_fit(spec_c, fr), fr, fs, e_c, e_s,
+                    np.array([floors[c]["nrmse"] for c in self.prob.channels]))
+
         rnd = 0
         swaps = 0
         while True:
@@ -923,18 +932,12 @@ class Selector:
                     break
                 cands, spec_c, tr, fs, fr = chosen
                 added.append((cands, fr, tr))
-                current_spec = _with_fit(spec_c, fr)
-                current = fr
-                cur_screen = fs
-                e_cur = self._test_errors(current)
-                e_screen = self._test_errors(cur_screen) if bs < b else e_cur
                 self.log(f"added {tr.name}: {fr.params}")
                 # the floor from the best model's residual: while the residual held model error the floor was the
                 # top-band one (coloured noise reads low there: suv_bumps' round 2 ran its pair beam at "4.3× the
                 # floor" with the stop already in and a residual that was noise)
                 floor_was = floor_n
-                self.recolour(floors, current)
-                floor_n = np.array([floors[c]["nrmse"] for c in self.prob.channels])
+                current_spec, current, cur_screen, e_cur, e_screen, floor_n = adopt(spec_c, fr, fs)
                 if not np.array_equal(floor_n, floor_was):
                     self.log("  noise floor from the residual of the model so far: " + ", ".join(
                         f"{c} {floors[c]['value']:.4g}" for c in self.prob.channels))
@@ -951,14 +954,8 @@ class Selector:
             out_c, cands, spec_c, tr, fs, fr = sw
             added = [([c for c in cs if c is not out_c], current, t) for cs, _, t in added]
             added = [(cs, fr, t) for cs, _, t in added if cs] + [(list(cands), fr, tr)]
-            current_spec = _with_fit(spec_c, fr)
-            current = fr
-            cur_screen = fs
-            e_cur = self._test_errors(current)
-            e_screen = self._test_errors(cur_screen) if bs < b else e_cur
             self.log(f"exchanged {out_c.name} for {cands[0].name}: {fr.params}")
-            self.recolour(floors, current)
-            floor_n = np.array([floors[c]["nrmse"] for c in self.prob.channels])
+            current_spec, current, cur_screen, e_cur, e_screen, floor_n = adopt(spec_c, fr, fs)
         # backward check
         removed = True
         while removed and sum(len(cs) for cs, _, _ in added) >= 2:
