@@ -52,7 +52,6 @@ from typing import Literal
 
 import numba
 import numpy as np
-
 from pydantic import Field, model_validator
 
 from suspension_sim.components import Params

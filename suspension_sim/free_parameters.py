@@ -49,7 +49,6 @@ class FreeParameter:
     target: str | None = None
     unseen: float | None = None  # where the parameter goes when the fitted window does not determine it
 
-
     def value(self, x: float, scales: dict) -> float:
         return float(x) * scale_of(self.scale, scales)
 

@@ -600,12 +600,10 @@ def levelled_with(kind: str, level: dict, P: dict) -> dict:
     if kind in ("sdof", "damper"):
         return {}
     vcls = VEHICLES.get(kind)
-    names = [n for n in mass_params(vcls) if n in level]
-    if not any(float(P.get(n, level[n])) != float(level[n]) for n in names):
-        return {}
+    out = {n: float(level[n]) for n in mass_params(vcls) if n in level and float(P.get(n, level[n])) != float(level[n])}
     if any("stiffness" in k and float(v) <= 1.5 * K_EPS for k, v in P.items() if k in vcls.Params.model_fields):
         return {}
-    return {n: float(level[n]) for n in names if float(P.get(n, level[n])) != float(level[n])}
+    return out
 
 
 def effect_candidates() -> dict:
