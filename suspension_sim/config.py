@@ -343,15 +343,9 @@ def check_components(sc: Scenario, source: str | None = None) -> None:
     vparams = validate_params(vcls.Params, sc.vehicle.params, "vehicle.params", source)
     corners = vcls.corner_names(vparams)
     if sc.vehicle.levelled_with:
-        from .vehicles.base import mass_params
+        from .vehicles.base import levelled_params
 
-        masses = mass_params(vcls, vparams)
-        bad = [k for k in sc.vehicle.levelled_with if k not in masses]
-        if bad:
-            raise ScenarioError(f"{bad[0]!r} is not a mass or inertia of {sc.vehicle.model!r} (levelled_with takes: "
-                                f"{', '.join(masses)})", source=source, field=f"vehicle.levelled_with.{bad[0]}")
-        validate_params(vcls.Params, {**sc.vehicle.params, **sc.vehicle.levelled_with}, "vehicle.levelled_with",
-                        source)
+        levelled_params(vcls, sc.vehicle.params, sc.vehicle.levelled_with, source, model=sc.vehicle.model)
     for i, e in enumerate(sc.vehicle.effects):
         ecls = EFFECTS.get(e.type, field=f"vehicle.effects.{i}.type", source=source)
         validate_params(ecls.Params, e.params, f"vehicle.effects.{i}.params", source)

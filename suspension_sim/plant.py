@@ -15,9 +15,10 @@ import mujoco
 import numpy as np
 from dm_control import mjcf
 
-from .components import validate_many, validate_params
+from .components import validate_many
 from .errors import ScenarioError
 from .registry import VEHICLES
+from .vehicles.base import levelled_params
 
 
 @contextlib.contextmanager
@@ -63,8 +64,8 @@ class Plant:
         # the parameters each car was levelled with when they are not its own (vehicle.levelled_with), else None
         self.level = []
         for v, p in zip(vehicle_cfgs, self.params):
-            lv = (validate_params(self.vcls.Params, {**v.params, **v.levelled_with}, "vehicle.levelled_with", source)
-                  if getattr(v, "levelled_with", None) else None)
+            lv = levelled_params(self.vcls, v.params, v.levelled_with, source) if getattr(v, "levelled_with", None) \
+                else None
             self.level.append(None if lv is None or lv == p else lv)
         corners = self.vcls.corners(self.params[0])
         for p in self.params[1:]:

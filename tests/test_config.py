@@ -115,6 +115,29 @@ def test_bad_scenario_one_line_error(tmp_path, path, value, field, text):
     assert "Value error" not in msg and "constrained" not in msg  # no pydantic internals
 
 
+@pytest.mark.parametrize("model, level", [
+    ("quarter_car", {"damping": 900.0}), ("quarter_car", {"sprung_mass": -1.0}), ("quarter_car", {"sprung_mass": True}),
+    ("quarter_car", {"sprung_mass": "290"}), ("quarter_car", {"unsprung_mass": 0.0}),
+    ("half_car", {"pitch_inertia": -5.0}), ("half_car", {"roll_inertia": 100.0})])
+def test_levelled_with_one_check_for_a_scenario_and_a_model_file(tmp_path, model, level):
+    """``vehicle.levelled_with`` of a scenario (run, validate) and ``levelled_with`` of a model file (diagnose
+    --model; a scenario's vehicle block is one) go through one check: the same file gives the same one-line error,
+    naming the file and the field.  Before, the model file took any positive number (a boolean ``true``, a zero
+    unsprung mass and a negative inertia gave other messages, or none)."""
+    from suspension_sim.diagnose.model import load_model
+
+    raw = copy.deepcopy(GOOD)
+    raw["vehicle"] = {"model": model, "levelled_with": level}
+    p = _write(tmp_path, raw)
+    with pytest.raises(ScenarioError) as run_err:
+        load_scenario(p)
+    with pytest.raises(ScenarioError) as diag_err:
+        load_model(p)
+    msg = str(run_err.value)
+    assert "\n" not in msg and msg.startswith(f"{p}: vehicle.levelled_with."), msg
+    assert str(diag_err.value) == msg
+
+
 @pytest.mark.parametrize("text, expect", [
     ("road: {type: flat\nsim: [1\n", "not valid YAML at line"),
     ("- 1\n- 2\n", "must be a YAML mapping"),

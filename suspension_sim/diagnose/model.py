@@ -165,7 +165,8 @@ def load_model(path_or_dict, source: str | None = None) -> ModelSpec:
         raw = copy.deepcopy(path_or_dict)
     if not isinstance(raw, dict):
         raise ScenarioError("the model must be a YAML mapping (a vehicle block)", source=source)
-    if "vehicle" in raw and isinstance(raw["vehicle"], dict):
+    nested = "vehicle" in raw and isinstance(raw["vehicle"], dict)
+    if nested:
         extra = {k: raw[k] for k in ("inputs", "position_zero", "offsets", "bounds_factor") if k in raw}
         raw = {**dict(raw["vehicle"]), **extra}
     raw = dict(raw)
@@ -250,13 +251,10 @@ def load_model(path_or_dict, source: str | None = None) -> ModelSpec:
             free.append(FreeParam(key, P[key], -np.inf if name == "force_offset" else 1e-6, np.inf, 1.0))
     level = raw.get("levelled_with") or {}
     if level:  # (a fitted model written back: the masses its nominal ride height carries)
-        from ..vehicles.base import mass_params
+        from ..vehicles.base import levelled_params
 
-        masses = mass_params(VEHICLES.get(kind)) if kind != "damper" else []
-        for k, v in level.items() if isinstance(level, dict) else [(level, None)]:
-            if k not in masses or isinstance(v, bool) or not isinstance(v, (int, float)) or not v > 0:
-                raise ScenarioError(f"levelled_with takes positive masses and inertias of {kind} "
-                                    f"({', '.join(masses) or 'none'}), got {k!r}: {v!r}", source=source,
-                                    field="levelled_with")
+        vehicle = "vehicle." if nested else ""  # fields as the file has them (a scenario's vehicle block too)
+        levelled_params(VEHICLES.get(kind) if kind != "damper" else None, {k: P[k] for k in defaults}, level,
+                        source, field=f"{vehicle}levelled_with", model=kind, params_field=f"{vehicle}params")
     return ModelSpec(kind, P, free, effects, fixed, source or "", raw, pz, bool(raw.get("offsets", True)), factor,
                      level={k: float(v) for k, v in level.items()})

@@ -92,13 +92,14 @@ def write_mjcf(D: Diagnosis, path: Path) -> str | None:
     try:
         from ..components import validate_params
         from ..registry import VEHICLES
+        from ..vehicles.base import levelled_params
 
         blk = vehicle_block(D)
         vcls = VEHICLES.get(blk["vehicle"]["model"])
         vp = blk["vehicle"]["params"]
         lw = blk["vehicle"].get("levelled_with")
         root = vcls.build(validate_params(vcls.Params, vp, "vehicle.params"), dt=min(5e-4, D.record.dt),
-                          level=validate_params(vcls.Params, {**vp, **lw}, "vehicle.levelled_with") if lw else None)
+                          level=levelled_params(vcls, vp, lw) if lw else None)
         path.write_text("<!-- fitted by suspension-sim diagnose: masses, springs and dampers of the fitted model; the\n"
                         "     added effects act through the effect_* motors (suspension_sim.effects), see model.fitted.yaml -->\n"
                         + root.to_xml_string())

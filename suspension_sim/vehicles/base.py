@@ -114,6 +114,29 @@ def mass_params(vcls, p=None) -> list[str]:
     return [n for n, t in vcls.variation_targets(p).items() if t and all(k.startswith("body") for k, _, _ in t)]
 
 
+def levelled_params(vcls, params: dict, level, source: str | None = None, field: str = "vehicle.levelled_with",
+                    model: str | None = None, params_field: str = "vehicle.params"):
+    """The parameters of the car the springs were levelled with (``vehicle.levelled_with`` of a scenario, or
+    ``levelled_with`` of a fitted model file): the car's own ``params`` (errors named ``params_field``) with the
+    masses and inertias ``level`` in place of its own, validated as the vehicle's parameters.  The one check of
+    both inputs: ``level`` must be a mapping of the model's masses and inertias (:func:`mass_params`) whose values
+    the vehicle's parameters accept (positive, finite, no lax conversions); anything else is a one-line
+    ScenarioError naming ``field``.  ``vcls`` None: a model without masses (diagnose's damper element)."""
+    from ..components import validate_params
+    from ..errors import ScenarioError
+
+    model = model or getattr(vcls, "name", "the model")
+    if not isinstance(level, dict):
+        raise ScenarioError(f"expects a mapping of masses and inertias, got {type(level).__name__} {level!r}"[:300],
+                            source=source, field=field)
+    masses = [] if vcls is None else mass_params(vcls, validate_params(vcls.Params, params, params_field, source))
+    bad = [k for k in level if k not in masses]
+    if bad:
+        raise ScenarioError(f"{bad[0]!r} is not a mass or inertia of {model!r} (levelled_with takes: "
+                            f"{', '.join(masses) or 'nothing'})", source=source, field=f"{field}.{bad[0]}")
+    return validate_params(vcls.Params, {**params, **level}, field, source)
+
+
 def targets_on_corners(targets: list, corners: list[str], all_corners: list[str]) -> list | None:
     """The variation targets of one parameter that act on ``corners`` (MJCF elements named ``*_<corner>``).
     All of them when ``corners`` is every corner of the model; None when the parameter is not per corner
