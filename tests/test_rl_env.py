@@ -196,15 +196,20 @@ EM = {"type": "electromagnetic", "params": {}}
 
 
 HYSTERESIS = {"model": "quarter_car", "effects": [{"type": "hysteresis", "corners": "all", "params": {}}]}
+# cars heavier than the masses their springs were levelled with: a run starts them at rest, sagged (1.4–1.8 mm; the episode ends at 10 mm travel)
+HEAVIER_HALF = {"model": "half_car", "levelled_with": {"sprung_mass": 495.0}}
+HEAVIER_QUARTER = {"model": "quarter_car", "levelled_with": {"sprung_mass": 287.0}}
 
 
 @pytest.mark.parametrize("actuator,vehicle,integrator,compiled", [
     (None, None, "implicitfast", True), (HYDRAULIC, None, "implicitfast", True), (EM, None, "implicitfast", True),
     (None, HYSTERESIS, "implicitfast", True), (None, {"model": "half_car"}, "implicitfast", True),
     (None, None, "trapezoidal", True), (None, {"model": "half_car"}, "trapezoidal", True),
-    (None, None, "trapezoidal", False)],
+    (None, None, "trapezoidal", False), (None, HEAVIER_HALF, "trapezoidal", True),
+    (None, HEAVIER_QUARTER, "trapezoidal", False)],
     ids=["ideal", "hydraulic", "electromagnetic", "hysteresis_effect", "half_car", "ideal_trapezoidal",
-         "half_car_trapezoidal", "ideal_trapezoidal_python_loop"])
+         "half_car_trapezoidal", "ideal_trapezoidal_python_loop", "half_car_heavier_than_levelled",
+         "heavier_than_levelled_python_loop"])
 def test_vector_autoreset_restarts_actuator_and_sensor_memory(actuator, vehicle, integrator, compiled, monkeypatch):
     """A car that terminates and is restarted in place continues as a fresh env would: on a flat road, at rest,
     its actuator (lag and delay line; hydraulic spool and pressure; coil currents), its effects (the Bouc-Wen
@@ -213,7 +218,9 @@ def test_vector_autoreset_restarts_actuator_and_sensor_memory(actuator, vehicle,
     value.  Before the fix the restarted car's delayed travel and force readings still showed the terminated
     episode; with the trapezoidal scheme, the loops' last-step velocities of the restarted car (the body-wheel
     damper coupling's Δv) were those of the terminated episode, and the travel was off by ~4e-5 m for a few
-    steps (the compiled loop and the Python loop hold them apart: both are run)."""
+    steps (the compiled loop and the Python loop hold them apart: both are run).  A car heavier than it was
+    levelled with (``vehicle.levelled_with``) restarts sagged, where a fresh run starts it; before, at the
+    levelled ride height."""
     if not compiled:
         monkeypatch.setenv("SUSPENSION_SIM_COMPILED", "0")
     kw = {"action_scale": 1000.0} if actuator is EM else {}  # the coil pair has no command limit of its own
@@ -233,6 +240,8 @@ def test_vector_autoreset_restarts_actuator_and_sensor_memory(actuator, vehicle,
     acts = np.random.default_rng(5).uniform(-1, 1, (30, nc)).astype(np.float32)
     fresh = SuspensionEnv(sc, reward={"terminate_travel": 1.0}, **kw)
     fresh.reset(seed=0)
+    if "levelled_with" in (vehicle or {}):  # the car does start off the levelled ride height
+        assert np.abs(fresh.simulation.initial_q).max() > 1e-3
     ref = [fresh.step(np.zeros(nc, np.float32))[0]]  # the restart step runs with zero command
     for a in acts[:-1]:
         ref.append(fresh.step(a)[0])

@@ -53,7 +53,8 @@ model, one loop call per control step for all cars).  Car i is the single env se
 (equal value by value while no car terminates).  The cars share the episode clock: they all truncate
 together at ``sim.duration``, and the next ``step`` starts a new episode for all (new draws per car).  A car
 that terminates early is reset in place at the next ``step`` (autoreset mode NEXT_STEP): its body and wheels
-are put at rest on the road under them and the episode goes on from there with zero command for that step;
+are put at rest on the road under them (a car heavier than it was levelled with, sagged as at the start
+of a run) and the episode goes on from there with zero command for that step;
 its actuator (lag, delay line, spool and pressure, coil currents), its effects' states and its sensors (delay
 lines, sample-and-hold) start again from their initial state, as in a new env (``System.reset_cars``; the
 other cars are untouched, and the car's road and noise stream go on; the trapezoidal integrator's last-step

@@ -99,6 +99,8 @@ class EnsembleRunner:
         height ``road`` (n_cars, n_corners), body heave at its mean, pitch and roll level, all at rest), at
         the current control instant, with their components restarted (:meth:`System.reset_cars`: actuator and
         effect states, sensor delay lines and holds, as at the start of a run); the other cars are untouched.
+        A car that starts a run off that state (one heavier than it was levelled with, ``vehicle.levelled_with``,
+        rests sagged: ``System.initial_q``/``initial_v``) restarts off it by as much.
         Called between :meth:`step` calls (the loop waits at a control instant after ``mj_step1``: the
         derived quantities are recomputed here)."""
         from ..loop import plant_state
@@ -106,6 +108,7 @@ class EnsembleRunner:
         sim = self.sim
         P = sim.plant
         m, d = P.model, P.data
+        q0, v0 = sim.initial_q, sim.initial_v  # per dof, as System.reset applies them
         cars = np.asarray(cars, dtype=np.intp).reshape(-1)
         for i in cars:
             d.qpos[P.body_q[i]] = 0.0
@@ -113,6 +116,11 @@ class EnsembleRunner:
             d.qpos[P.body_q[i, 0]] = float(np.mean(road[i]))  # heave (the first body joint)
             d.qpos[P.wheel_q[i]] = road[i]
             d.qvel[P.wheel_v[i]] = 0.0
+            for q, v in ((P.body_q[i], P.body_v[i]), (P.wheel_q[i], P.wheel_v[i])):
+                if q0 is not None:
+                    d.qpos[q] += q0[v]
+                if v0 is not None:
+                    d.qvel[v] = v0[v]
         mujoco.mj_step1(m, d)
         # the restarted cars' true state now, as at the start of a run: no last-step acceleration, no force yet
         road = np.asarray(road, dtype=float)
