@@ -257,6 +257,16 @@ def run_case(name, seed=0, out=None, log=None):
             "pairs_tried": [(t["round"], t["name"]) for t in rep["candidates"] if "+" in t["name"]]}
 
 
+# the search's log lines printed beside the table, as they come: how the noise floor moved, the pair beams the
+# forward rounds started ("pairs of"), and the exchange step's (its start, "exchange at …", and each swap,
+# "exchanged A for B: …"); the trials of every round are in report.json
+SHOWN = ("noise floor", "pairs of", "exchange")
+
+
+def shown(line: str) -> bool:
+    return any(k in line for k in SHOWN)
+
+
 def _ux(r):
     return "" if r["unexplained"] is None else f"{r['unexplained']:.1f}×"
 
@@ -272,8 +282,8 @@ def main():
     for name in a.cases.split(","):
         lines = []
         r = run_case(name, a.seed, log=lines.append)
-        for ln in lines:  # how the floor moved during the search, and the pair beams it started
-            if "noise floor" in ln or "pairs of" in ln:
+        for ln in lines:
+            if shown(ln):
                 print(f"<!-- {name} log: {ln.strip()} -->", flush=True)
         print(f"| {name} | {', '.join(r['expected']) or '—'} | {', '.join(r['named']) or '—'} | "
               f"{'yes' if r['exact'] else 'no'} | {', '.join(r['false']) or '—'} | {r['before']:.4f} → {r['after']:.4f} | "
