@@ -5,6 +5,7 @@ import numba
 import numpy as np
 from pydantic import Field, model_validator
 
+from .. import buffers
 from ..components import Params
 from ..registry import ROADS
 from ._common import cosine_window, cosine_window_rate, edge_weight
@@ -79,7 +80,8 @@ class Sine(Road):
                 src, anchors, h = (t, grid.t_anchor, grid.dt) if temporal else (x, grid.x_anchor, grid.dx)
                 # computed step-major (a step's rows side by side) and returned as (rows, samples) views of it,
                 # which road_chunk copies into its step-major chunk without a transpose
-                z, dz = np.empty((len(src), len(idx))), np.empty((len(src), len(idx)))
+                # (in buffers of earlier chunks that nothing reads any more: no fresh pages to fault in)
+                z, dz = buffers.empty((len(src), len(idx))), buffers.empty((len(src), len(idx)))
                 sine_grid(np.asarray(src, dtype=float), col("start")[:, 0], k[:, 0], col("phase")[:, 0],
                           col("amplitude")[:, 0], np.asarray(anchors, dtype=float), int(grid.g0), int(grid.M),
                           float(h), z, dz)
@@ -87,7 +89,9 @@ class Sine(Road):
             else:
                 s = (np.asarray(t, dtype=float) if temporal else np.asarray(x, dtype=float))[None, :] - col("start")
                 z, dz = sine_law(s, col("amplitude"), k, col("phase"), col("fade_in") if fade else None)
-            zero = np.zeros_like(dz)
+            # the slope that is zero: a read-only broadcast zero on the grid (road_chunk only reads it; a fresh
+            # array of the chunk's size cost a page fault per 4 KB), else an array
+            zero = np.broadcast_to(0.0, dz.shape) if grid is not None and not fade else np.zeros_like(dz)
             res = (z, dz, zero) if temporal else (z, zero, dz)
             if len(kinds) == 1:
                 return res
