@@ -16,6 +16,17 @@ stops): each side's gap starts at 0.7 of the largest travel to that side, the st
                        "gap_extension": FreeParameter("s_ext", init=0.7, lo=1e-6, hi=2.0, size=False),
                        "stiffness": FreeParameter("max(k, F/s)", init=2.0)}
 
+An effect that *generalises* a linear element of the car declares it (``contains = {quantity: (param, ...)}``,
+quantity ``damping`` or ``stiffness``): with every listed parameter equal to the car's linear suspension
+``quantity`` of its corners (and that set to 0), the effect is that element.  Asymmetric damping contains
+the linear damping (``{"damping": ("c_comp", "c_reb")}``): c_comp = c_reb = c is a linear damper c.  Beside a
+free linear damping of the same corners the two would parametrise the same thing twice (adding δ to the
+damping and taking it from both rates changes nothing: the fit is singular along that line, and the search
+read the damping "driven to zero" by a stand-in).  The workflow then fits the effect *in place of* that
+parameter: the linear parameter is held at 0, the listed parameters are the totals (started at the current
+linear value, within its bounds), and the effect's size is how far they differ from one another (the effect
+with all of them equal is the linear element it replaced).
+
 An effect may also say what fitted values mean on the record (``fitted_notes(params, travel, ci95) ->
 {param: text}``, static; e.g. a bump stop's gap beyond the largest travel, or not distinguishable from one:
 "no extension stop"); the report gives the notes beside the values and in the verdict.

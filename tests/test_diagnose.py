@@ -134,7 +134,7 @@ def test_bump_stop_gaps_per_side_reach_the_one_kernel():
     from suspension_sim.diagnose.engine import Engine, effect_force
     from suspension_sim.effects.bump_stop import BumpStop
 
-    assert {"gap_compression", "gap_extension", "stiffness"} == set(BumpStop.free_parameters)
+    assert {"gap_compression", "gap_extension", "stiffness", "damping"} == set(BumpStop.free_parameters)
     t = np.arange(2000) * 1e-3
     s = 0.06 * np.sin(2 * np.pi * 1.3 * t)
     v = np.gradient(s, 1e-3)
@@ -313,7 +313,7 @@ def test_a_corner_placement_is_a_scenario_effect_on_that_corner_only():
 
     cand = next(c for c in library(load_model({"model": "full_car"})) if c.name == "bump_stop@rl")
     eff = cand.describe({"bump_stop@rl.gap_compression": 0.005, "bump_stop@rl.gap_extension": 0.005,
-                         "bump_stop@rl.stiffness": 5e4})["effect"]
+                         "bump_stop@rl.stiffness": 5e4, "bump_stop@rl.damping": 0.0})["effect"]
     assert eff["corners"] == ["rl"]
     sc = parse_scenario({"vehicle": {"model": "full_car", "effects": [eff]},
                          "road": {"type": "sine", "params": {"amplitude": 0.02, "frequency": 1.5}, "speed": 10},

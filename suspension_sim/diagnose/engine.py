@@ -123,6 +123,23 @@ def input_names(kind: str) -> tuple[list[str], list[str]]:
     return [f"{n}{s}" for s in sfx for n in ("road", "force")], [f"road{s}" for s in sfx]
 
 
+def linear_params(kind: str, quantity: str, corners) -> list[str]:
+    """The vehicle parameters that are exactly the linear suspension ``quantity`` (``damping`` or
+    ``stiffness``) of the corners ``corners`` ("all" or corner names): each writes that field of the suspension
+    tendons of those corners and of no other (the quarter car's ``damping``; the half and full car's
+    ``damping_front`` for the front corners).  The damper element's own ``damping`` / ``spring_stiffness``."""
+    if kind == "damper":
+        return [{"damping": "damping", "stiffness": "spring_stiffness"}[quantity]] if corners == "all" else []
+    vcls = VEHICLES.get(kind)
+    layout = corner_layout(kind)
+    want = {f"suspension{c.suffix}" for c in layout if corners == "all" or c.name in corners}
+    out = []
+    for name, targets in vcls.variation_targets(vcls.Params()).items():
+        if targets and all(t[0] == f"tendon_{quantity}" for t in targets) and {t[1] for t in targets} == want:
+            out.append(name)
+    return out
+
+
 def writable_params(kind: str) -> set[str]:
     """Vehicle parameters written into the built MjModel per car (no rebuild)."""
     if kind == "damper":

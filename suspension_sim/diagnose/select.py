@@ -235,6 +235,8 @@ def size_zero(fr: FitResult, members: list) -> bool:
     same amount changes nothing, so each of c_comp, c_reb has a huge error while their difference, the
     asymmetry, is sharp: blind battery two_asym_cubic, c_comp 1273 / c_reb 2905 N·s/m "indistinguishable
     from zero" in round 1 with ΔBIC −4287)."""
+    if any(ref is None for _, ref in members):
+        return _differences_zero(fr, [n for n, _ in members])
     d = np.array([fr.params[n] - ref for n, ref in members], float)
     sd = np.array([fr.std.get(n, np.inf) for n, _ in members], float)
     single = [not (abs(di) > ZERO_Z * si) for di, si in zip(d, sd)]
@@ -252,6 +254,33 @@ def size_zero(fr: FitResult, members: list) -> bool:
 
     w = float(d @ np.linalg.pinv(C) @ d)
     return not w > chi2.ppf(chi2.cdf(ZERO_Z ** 2, 1), len(members))
+
+
+def _differences_zero(fr: FitResult, names: list) -> bool:
+    """Whether parameters ``names`` are together indistinguishable from all being equal: their successive
+    differences d = A·θ against zero by the Wald statistic dᵀ·(A·C·Aᵀ)⁻¹·d (one difference: beyond ``ZERO_Z``
+    standard errors).  The size of an effect fitted in place of the linear element it contains (asymmetric
+    damping's total compression and rebound rates: equal, they are a linear damper, the model without it)."""
+    th = np.array([fr.params[n] for n in names], float)
+    sd = np.array([fr.std.get(n, np.inf) for n in names], float)
+    if len(names) < 2 or not np.all(np.isfinite(sd)):
+        return True
+    A = np.diff(np.eye(len(names)), axis=0)
+    spec_names = [f.name for f in fr.spec.free]
+    R = np.eye(len(names))
+    if fr.corr is not None and all(n in spec_names for n in names):
+        idx = [spec_names.index(n) for n in names]
+        Rc = np.asarray(fr.corr, float)[np.ix_(idx, idx)]
+        if np.all(np.isfinite(Rc)):
+            R = Rc
+    Cd = A @ (R * np.outer(sd, sd)) @ A.T
+    d = A @ th
+    if len(d) == 1:
+        return not abs(d[0]) > ZERO_Z * np.sqrt(max(Cd[0, 0], 0.0))
+    from scipy.stats import chi2
+
+    w = float(d @ np.linalg.pinv(Cd) @ d)
+    return not w > chi2.ppf(chi2.cdf(ZERO_Z ** 2, 1), len(d))
 
 
 NOT_SEPARABLE = "not separable on this record"
@@ -551,7 +580,9 @@ class Selector:
         for entry in size_names:
             n, ref = (entry, 0.0) if isinstance(entry, str) else entry
             if n in fr.params:
-                key = (n.rpartition(".")[0] or n) if isinstance(entry, str) else ("parameter", n)
+                # an effect's sizes together (against zero, or, fitted in place of a linear element, against one
+                # another); a freed nominal parameter's change alone
+                key = (n.rpartition(".")[0] or n) if (isinstance(entry, str) or ref is None) else ("parameter", n)
                 groups.setdefault(key, []).append((n, ref))
         zero = [n for members in groups.values() if size_zero(fr, members) for n, _ in members]
         tr.zero_size = bool(zero)
@@ -599,8 +630,8 @@ class Selector:
         out = []
         for f in cur.spec.free:
             n = f.name
-            if n not in veh or n not in fr.P or n in new_sizes:
-                continue
+            if n not in veh or n not in fr.P or n not in fr.params or n in new_sizes:
+                continue  # (not free in the fit: held by a candidate fitted in its place, EffectCandidate.augment)
             v0, s0 = float(cur.P[n]), float(cur.std.get(n, np.nan))
             if not abs(v0) > 2.0 * s0:
                 continue  # not established before: nothing to replace
@@ -743,9 +774,14 @@ class Selector:
             spec_c, starts = current_spec, None
             sizes = []
             for c in cands:
+                before = [f.name for f in spec_c.free]
                 spec_c, st = c.augment(spec_c, sc)
                 sizes += list(c.size_names)
-                starts = st if starts is None else [s0 + s1[len(s0):] for s0 in starts for s1 in st[:1]]
+                if starts is not None:  # a pair: each start of the first with the second's own (by name: an
+                    # effect fitted in place of a linear parameter takes that parameter out of the vector)
+                    names_c = [f.name for f in spec_c.free]
+                    st = [[dict(zip(before, s0)).get(nm, v) for nm, v in zip(names_c, st[0])] for s0 in starts]
+                starts = st
             for fr0 in starts_from:  # a pair starts from each member's own fit too
                 starts.append([fr0.P.get(f.name, f.init) for f in spec_c.free])
             if len(spec_c.free) == len(current_spec.free):

@@ -75,12 +75,13 @@ def _suspension_extra(effects: dict, s, v, st):
         elif name == "asymmetric_damping":
             F += -(p.get("c_reb", 0.0) if v > 0 else p.get("c_comp", 0.0)) * v
         elif name == "bump_stop":  # gap_compression / gap_extension (None: no stop that side) default to gap
-            k = p["stiffness"]
+            # optional contact damping c while engaged; the stop pushes, never pulls
+            k, c = p["stiffness"], p.get("damping", 0.0)
             gc, ge = p.get("gap_compression", p.get("gap")), p.get("gap_extension", p.get("gap"))
             if ge is not None and s > ge:
-                F += -k * (s - ge)
+                F += min(0.0, -k * (s - ge) - c * v)
             elif gc is not None and s < -gc:
-                F += k * (-gc - s)
+                F += max(0.0, k * (-gc - s) - c * v)
         elif name == "cubic_stiffness":
             F += -p["k3"] * s ** 3
         elif name == "hysteresis":

@@ -112,6 +112,11 @@ class AsymmetricDamping(Effect):
     # what `suspension-sim diagnose` may fit (suspension_sim/free_parameters.py)
     free_parameters = {"c_comp": FreeParameter("c", init=0.1, starts=(0.1, 0.0)),
                        "c_reb": FreeParameter("c", init=0.0, starts=(0.0, 0.1))}
+    # with c_comp = c_reb = c this damper is the car's linear damping c: beside a free linear damping of its
+    # corners the search fits the total rates in its place (free_parameters.py: ``contains``) instead of
+    # adding two rates that duplicate it (blind battery asym_van_sweep: the duplicated fit read the damping
+    # "driven to zero" at correlation 1.000, and a sprung mass was named instead, 37× the floor)
+    contains = {"damping": ("c_comp", "c_reb")}
     signature = ("residual force vs travel rate has a kink at v=0 (different compression/rebound slopes) or a "
                  "map shape; mean travel drifts (jacking/packing down) under symmetric excitation")
 
