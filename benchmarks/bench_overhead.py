@@ -12,7 +12,7 @@ channels the metrics read).  Each pair runs, in one process and back to back:
 The order alternates (A B, B A, ...) so a change of the machine's load hits both sides alike; each pair's
 ratio is A / B, and the median and range over the pairs are printed.  Times are CPU seconds of this process.
 
-Run:  python benchmarks/bench_overhead.py [--pairs N] [--cars N] [--duration S]
+Run:  python benchmarks/bench_overhead.py [--pairs N] [--cars N] [--duration S] [--logging all] [--worker-gc]
 """
 from __future__ import annotations
 
@@ -37,6 +37,9 @@ def main():
     ap.add_argument("--cars", type=int, default=256)
     ap.add_argument("--duration", type=float, default=2.0)
     ap.add_argument("--logging", default="metrics", choices=("metrics", "all"))
+    ap.add_argument("--worker-gc", action="store_true",
+                    help="after the warm-up, freeze the garbage collector's objects as a batch worker process does "
+                         "(lifecycle.freeze_gc); default: the collector of a plain Python process")
     a = ap.parse_args()
 
     import mujoco
@@ -50,6 +53,10 @@ def main():
     scs = [parse_scenario(scenario_raw(duration=a.duration, amplitude=float(x), frequency=float(f)))
            for x, f in zip(rng.uniform(0.01, 0.03, a.cars), rng.uniform(0.8, 2.0, a.cars))]
     Simulation(scs[:2], log_channels=a.logging).run()  # load the compiled loop
+    if a.worker_gc:
+        from suspension_sim.lifecycle import freeze_gc
+
+        freeze_gc()
 
     inside = [0.0]
     orig_load = cloop.load_module
@@ -89,7 +96,8 @@ def main():
     _, _, sim = run_a()
     model, nstep = sim.plant.model, sim.n_steps
     print(f"{a.cars} cars x {a.duration:g} s ({nstep} steps, {sim.loop} compiled loop, integrator "
-          f"{model.opt.integrator}, logging {a.logging}); load average {os.getloadavg()[0]:.1f}")
+          f"{model.opt.integrator}, logging {a.logging}, {'worker' if a.worker_gc else 'plain'} gc); load average "
+          f"{os.getloadavg()[0]:.1f}")
     loop_r, whole_r, raw_t, loop_t, whole_t = [], [], [], [], []
     for p in range(a.pairs):
         if p % 2 == 0:
