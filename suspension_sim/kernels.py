@@ -5,7 +5,8 @@ The compiled loop (:mod:`suspension_sim.compiled`) inlines the same functions, s
 compiled loop run the same arithmetic; nothing is written twice.  The kernel signatures (see
 :mod:`suspension_sim.compiled` for the full protocol):
 
-- effect:      ``kernel(s, v, t, dt, p, st) -> float``            (one corner of one car)
+- effect:      ``kernel(s, v, t, dt, p, st) -> float``            (one corner of one car; with
+  ``reads_actuator_force``, ``kernel(s, v, t, dt, p, st, fa)``, ``fa`` the actuator force of the step)
 - actuator:    ``kernel_force(cmd, s, v, t, dt, p, st) -> float``  and ``kernel_advance(...) -> None``
 - controller:  ``kernel(t, y, p, st, u) -> None``                 (one car: readings y, command row u)
 
@@ -39,6 +40,15 @@ def broadcast_effect(kernel, s, v, t, dt, p, st, out):
     for i in range(n):
         for c in range(k):
             out[i, c] = kernel(s[i, c], v[i, c], t, dt, p[i, c], st[i, c])
+
+
+@numba.njit(cache=False)  # see above: not cached on disk
+def broadcast_effect_fa(kernel, s, v, t, dt, p, st, fa, out):
+    """As :func:`broadcast_effect` for a law that reads the actuator force: ``kernel(..., fa[i, c])``."""
+    n, k = s.shape
+    for i in range(n):
+        for c in range(k):
+            out[i, c] = kernel(s[i, c], v[i, c], t, dt, p[i, c], st[i, c], fa[i, c])
 
 
 @numba.njit(cache=False)  # see above: not cached on disk

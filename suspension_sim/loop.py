@@ -7,8 +7,8 @@ Per physics step ``dt`` (default 0.5 ms), for every car of the ensemble at once:
 3. ``mj_step1`` computes positions and velocities (tendon lengths = travel, tire deflection);
 4. at control instants (every ``control_dt``) the sensors sample the plant and the controller returns a
    command, held (zero-order hold) until the next control instant;
-5. the actuator force and the effect forces are computed from the state at the start of the step and
-   written to the corner motors;
+5. the actuator force and the effect forces are computed from the state at the start of the step (an effect
+   that reads the actuator force gets this step's) and written to the corner motors;
 6. ``mj_step2`` integrates (implicitfast: tendon dampers implicit) and the actuator states advance.
 
 Logging happens every ``log_dt``.  A NaN or runaway state stops the run with
@@ -101,15 +101,16 @@ def steps(sim, logger, progress=None):
                 if not P.road_dof:  # wheel − road
                     tlen, tvel = tlen - road, tvel - road_vel
             for eff, sel, every in effects:
+                fa = ((F_act if every else F_act[:, sel]),) if eff.reads_actuator_force else ()
                 if eff.target == "tire":
                     if every:
-                        F_teff += eff.force(tlen, tvel, t, sim.dt)
+                        F_teff += eff.force(tlen, tvel, t, sim.dt, *fa)
                     else:
-                        F_teff[:, sel] += eff.force(tlen[:, sel], tvel[:, sel], t, sim.dt)
+                        F_teff[:, sel] += eff.force(tlen[:, sel], tvel[:, sel], t, sim.dt, *fa)
                 elif every:
-                    F_eff += eff.force(travel, rate, t, sim.dt)
+                    F_eff += eff.force(travel, rate, t, sim.dt, *fa)
                 else:
-                    F_eff[:, sel] += eff.force(travel[:, sel], rate[:, sel], t, sim.dt)
+                    F_eff[:, sel] += eff.force(travel[:, sel], rate[:, sel], t, sim.dt, *fa)
             S.eff_s.set(F_eff)
             if P.has_tire and P.road_dof:
                 S.eff_t.set(F_teff)

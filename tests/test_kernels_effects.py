@@ -200,12 +200,77 @@ def test_hysteresis_law_against_the_bouc_wen_ode():
     assert max(F) > 0.99 * Fh and min(F) < -0.99 * Fh
 
 
+def _coulomb_mean_by_hand(v, a, m_r, Fc, n=20000):
+    """The mean force over one step DT of exact Coulomb friction on a mass m_r pushed by the other forces
+    m_r·a (held): the rate integrated in n sub-steps, a sub-step split where the rate crosses zero; at zero
+    rate it sticks while |a| ≤ F_c/m_r, else slides the way a pushes."""
+    h, imp, b = DT / n, 0.0, Fc / m_r
+    for _ in range(n):
+        left = h
+        while left > 0.0:
+            if v == 0.0:
+                if abs(a) <= b:
+                    imp += -m_r * a * left
+                    break
+                F = -Fc * math.copysign(1.0, a)
+            else:
+                F = -Fc * math.copysign(1.0, v)
+            acc = a + F / m_r
+            v_new = v + acc * left
+            if v != 0.0 and v_new * v < 0.0:  # reaches zero inside the sub-step
+                dt0 = -v / acc
+                imp += F * dt0
+                left -= dt0
+                v = 0.0
+                continue
+            imp += F * left
+            v, left = v_new, 0.0
+    return imp / DT
+
+
+def test_coulomb_friction_stick_slip_step_mean_law():
+    """stick_slip with step_force: mean: the exact law's mean over the step with the other forces held, their
+    acceleration a_k = (v_k − v_{k−1})/dt − (F_{k−1} + F_act,k−1)/m_r + F_act,k/m_r (this step's actuator force,
+    which the effect reads), checked against sub-stepped Coulomb friction: sliding, sticking, a rate reversal
+    inside a step that slides on, and actuator jumps.  The start-of-step law on the same sequence is off by
+    more than F_c/2 (the check can fail)."""
+    m_r, Fc = 50.0, 100.0
+    seq = [(0.01, 0.0), (0.012, 0.0), (0.001, 0.0), (0.001, -400.0), (-0.002, -400.0), (-0.0021, 150.0),
+           (-1e-4, 150.0), (0.0, 0.0), (0.02, 300.0)]
+    got_all, ref_all = [], []
+    for mode in ("mean", "start"):
+        eff = build("coulomb_friction", [{"force": Fc, "step_force": mode}], n_sel=1)
+        assert type(eff).reads_actuator_force
+        F_prev, v_prev, fa_prev, kinds = 0.0, None, 0.0, set()
+        for v, fa in seq:
+            a = fa / m_r if v_prev is None else (v - v_prev) / DT - (F_prev + fa_prev) / m_r + fa / m_r
+            ref = _coulomb_mean_by_hand(v, a, m_r, Fc)
+            got = eff.force(np.array([[0.0]]), np.array([[v]]), 0.0, DT, np.array([[fa]]))[0, 0]
+            if mode == "mean":
+                assert got == pytest.approx(ref, rel=1e-3, abs=1e-3), (v, fa)
+                b = Fc / m_r
+                kind = ("reverses" if v * a < 0 and abs(a) > b and abs(v) < (b + abs(a)) * DT else
+                        "sticks" if abs(got) < Fc * (1 - 1e-9) else "slides")
+                kinds.add(kind)
+                assert eff.signals()["stuck"][0, 0] == (1.0 if kind == "sticks" else 0.0)
+                got_all.append(got)
+                ref_all.append(ref)
+            else:
+                got_all.append(got)
+            F_prev, v_prev, fa_prev = got, v, fa
+        if mode == "mean":
+            assert kinds == {"reverses", "sticks", "slides"}
+    start = np.array(got_all[len(seq):])
+    assert np.max(np.abs(start - np.array(ref_all))) > 0.5 * Fc
+
+
 # ------------------------------------------------------------------------------------------------------
 ENSEMBLES = {
     "quadratic_damping": [{"c_v": 300.0}, {"c_v": [100.0, 400.0]}, {"c_v": 0.0}],
     "asymmetric_damping": [{"table": [[-1.0, -900.0], [0.0, 0.0], [1.0, 1800.0]]}, {"c_comp": 500.0, "c_reb": 900.0},
                            {"table": [[-0.5, -400.0], [0.0, 0.0], [0.1, 100.0], [0.3, 900.0]]}],
-    "coulomb_friction": [{"force": 100.0}, {"force": 150.0, "v_eps": 0.02}, {"force": [50.0, 400.0], "law": "stick_slip"}],
+    "coulomb_friction": [{"force": 100.0, "step_force": "mean"}, {"force": 150.0, "v_eps": 0.02},
+                         {"force": [50.0, 400.0], "law": "stick_slip"}],
     # (an optional gap given for some cars and not others does not stack: each car sets both or none)
     "bump_stop": [{"gap": 0.01, "gap_compression": 0.01, "damping": 500.0},
                   {"gap": [0.02, 0.005], "gap_compression": 0.004},
@@ -263,6 +328,7 @@ ALL_EFFECTS = [
                                                         [1.0, 1800.0]]}},
     {"type": "coulomb_friction", "params": {"force": 80.0}},
     {"type": "coulomb_friction", "params": {"force": 50.0, "v_eps": 0.05}},
+    {"type": "coulomb_friction", "params": {"force": 60.0, "step_force": "mean"}},  # reads the actuator force
     {"type": "bump_stop", "params": {"gap": 0.02, "stiffness": 40000.0, "damping": 500.0}},
     {"type": "cubic_stiffness", "params": {"k3": 1e6}},
     {"type": "hysteresis", "params": {"force": 60.0, "x_y": 0.003}},

@@ -153,7 +153,7 @@ def _sensor_code(sc: int, field: int, simple: bool) -> str:
 
 
 def generate_source(effects, actuator, controller, sensors=(), shape=None) -> str:
-    """Python source of the loop for ``effects`` [(module, name, target)], ``actuator`` ((module, force),
+    """Python source of the loop for ``effects`` [(module, name, target, reads the actuator force)], ``actuator`` ((module, force),
     (module, advance)) and ``controller`` ((module, name) or None for the hybrid loop).  ``shape``: (corners,
     body dofs) per car, written into the loop as constants (or None: read from the arrays).
 
@@ -165,7 +165,7 @@ def generate_source(effects, actuator, controller, sensors=(), shape=None) -> st
            "from suspension_sim.compiled.mj import mj_step1, mj_step2, mj_step, mj_forwardSkip",
            "from suspension_sim.compiled.loop import inlined",
            "from suspension_sim.sensors.base import measure, period_mean_acc", "from suspension_sim.compiled.views import row"]
-    for k, (mod, name, _) in enumerate(effects):
+    for k, (mod, name, _, _) in enumerate(effects):
         imp.append(f"from {mod} import {name} as eff{k}")
     (am, af), (am2, aa) = actuator
     imp.append(f"from {am} import {af} as _act_force")
@@ -181,12 +181,13 @@ def generate_source(effects, actuator, controller, sensors=(), shape=None) -> st
         imp.append(f"from {controller[0]} import {controller[1]} as ctrl_kernel")
     eargs = "".join(f", e{k}_p, e{k}_st, e{k}_map, e{k}_sigj, e{k}_lc, e{k}_pi" for k in range(len(effects)))
     susp_calls, tire_calls, sig_logs = [], [], []
-    for k, (_, _, target) in enumerate(effects):
+    for k, (_, _, target, reads_fa) in enumerate(effects):
         ind = " " * (24 if target == "tire" else 20)
         call = (f"{ind}jj = e{k}_map[c]\n"
                 f"{ind}if jj >= 0:\n"
                 f"{ind}    {'f' if target != 'tire' else 'ft'} += eff{k}("
-                f"{'s, v' if target != 'tire' else 'tl, tv'}, t, dt, row(row(e{k}_p, e{k}_pi[i]), jj), row(row(e{k}_st, i), jj))\n")
+                f"{'s, v' if target != 'tire' else 'tl, tv'}, t, dt, row(row(e{k}_p, e{k}_pi[i]), jj), row(row(e{k}_st, i), jj)"
+                f"{', Fa' if reads_fa else ''})\n")  # Fa: this step's actuator force (Effect.reads_actuator_force)
         (tire_calls if target == "tire" else susp_calls).append(call)
         sig_logs.append(
             f"                for q in range(e{k}_sigj.shape[0]):\n"
@@ -694,7 +695,7 @@ def run_steps(sim, mode: str, progress=None, logger=None):
     for eff, sel in sim.effects:
         fn = type(eff).kernel
         mod, name = _kernel_ref(fn)
-        effects.append((mod, name, eff.target))
+        effects.append((mod, name, eff.target, bool(eff.reads_actuator_force)))
         p, st = eff.kernel_arrays()  # the arrays set_param rewrites (time-varying effect parameters)
         cmap = np.full(nc, -1, dtype=np.int64)
         cmap[np.asarray(sel)] = np.arange(len(sel))

@@ -597,7 +597,10 @@ class Engine:
             eff = ecls(stack_params(plist, 1), ctx)
             p, st = eff.kernel_data()
             p, st = np.ascontiguousarray(p, float), np.ascontiguousarray(st, float)
-            _series(type(eff).kernel, s, v, self.dt_rec, p, st, F)
+            if eff.reads_actuator_force:  # a damper element has no actuator
+                _series_fa(type(eff).kernel, s, v, self.dt_rec, p, st, F)
+            else:
+                _series(type(eff).kernel, s, v, self.dt_rec, p, st, F)
         return (-F)[:, :, None]
 
 
@@ -607,6 +610,14 @@ def _series(kernel, s, v, dt, p, st, out):
     for k in range(s.shape[0]):
         for i in range(p.shape[0]):
             out[i, k] += kernel(s[k], v[k], k * dt, dt, p[i, 0], st[i, 0])
+
+
+@numba.njit(cache=False)
+def _series_fa(kernel, s, v, dt, p, st, out):
+    """As :func:`_series` for a law that reads the actuator force (``Effect.reads_actuator_force``): zero here."""
+    for k in range(s.shape[0]):
+        for i in range(p.shape[0]):
+            out[i, k] += kernel(s[k], v[k], k * dt, dt, p[i, 0], st[i, 0], 0.0)
 
 
 def levelled_with(kind: str, level: dict, P: dict) -> dict:

@@ -9,7 +9,9 @@ A built-in effect writes its law once, as a numba :attr:`Effect.kernel` for one 
 base class broadcasts it over the ensemble for the Python loop (:meth:`Effect.force`, :meth:`Effect.signals`)
 and the compiled loop inlines it.  ``force(s, v, t, dt)`` takes ``s`` and ``v`` of shape ``(n_cars, n_sel)``
 (the corners the effect applies to) and is called once per physics step with the state at the start of that
-step; stateful effects (hysteresis, backlash) keep their state in the kernel's ``st`` rows.
+step; stateful effects (hysteresis, backlash) keep their state in the kernel's ``st`` rows.  An effect that sets
+:attr:`Effect.reads_actuator_force` also gets the actuator's force of that step on its corner (both loops compute
+it before the effects): its kernel is ``kernel(s, v, t, dt, p, st, fa)`` and ``force(s, v, t, dt, fa)``.
 
 Every effect documents its force law and the *signature* it leaves in measured data (used by the
 discrepancy workflow).
@@ -21,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..components import NoParams
-from ..kernels import KernelState, broadcast_effect, call, f64, pack
+from ..kernels import KernelState, broadcast_effect, broadcast_effect_fa, call, f64, pack
 
 
 @dataclass
@@ -55,6 +57,11 @@ class Effect(KernelState):
     # changed solves for it); False for a path-dependent law (hysteresis, backlash), whose force at rest
     # depends on how the travel got there
     static_law = True
+    # whether the law also reads the actuator's force on its corner in the same physics step (N, positive pushes
+    # the body up, as an effect's force): its kernel then takes it as a last argument, ``kernel(s, v, t, dt, p,
+    # st, fa)``, and both loops pass it (a law that estimates the other forces on the suspension, such as
+    # coulomb_friction's step mean, sees the force that the controller's new command gives in this step)
+    reads_actuator_force = False
 
     @property
     def label(self) -> str:
@@ -117,14 +124,19 @@ class Effect(KernelState):
         if type(self).kernel is not None and getattr(self, "_kd", None) is not None:
             self._kd[0][...] = self.parameter_rows()
 
-    def force(self, s: np.ndarray, v: np.ndarray, t: float, dt: float) -> np.ndarray:
+    def force(self, s: np.ndarray, v: np.ndarray, t: float, dt: float, fa=None) -> np.ndarray:
         """The force of every selected corner of every car, (n_cars, n_sel): the kernel broadcast over the
-        ensemble (its state advances)."""
+        ensemble (its state advances).  ``fa``: the actuator force on those corners in this step (read only when
+        :attr:`reads_actuator_force`; None: zero)."""
         p, st = self._data()
         shape = p.shape[:2]
         s, v = (f64(a if np.shape(a) == shape else np.broadcast_to(a, shape)) for a in (s, v))
         out = np.empty(shape)
-        call(broadcast_effect, type(self).kernel, s, v, float(t), float(dt), p, st, out)
+        if type(self).reads_actuator_force:
+            fa = np.zeros(shape) if fa is None else f64(fa if np.shape(fa) == shape else np.broadcast_to(fa, shape))
+            call(broadcast_effect_fa, type(self).kernel, s, v, float(t), float(dt), p, st, fa, out)
+        else:
+            call(broadcast_effect, type(self).kernel, s, v, float(t), float(dt), p, st, out)
         return out
 
     def signals(self) -> dict[str, np.ndarray]:

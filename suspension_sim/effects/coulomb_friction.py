@@ -23,10 +23,12 @@ class CoulombFrictionParams(Params):
     v_eps: PerCornerPos = Field(0.01, description="tanh law only: regularisation velocity in m/s "
                                 "(96 % of F_c at 2·v_eps)")
     step_force: Literal["start", "mean"] = Field(
-        "start", description="tanh law only: the force applied over a physics step. start: the law at the "
-        "rate at the start of the step; mean: the law's mean over the step, the rate taken as linear through "
-        "it and the friction force's own part of that rate solved implicitly (first order at a rate reversal "
-        "inside the step becomes second order; no chatter at any v_eps)")
+        "start", description="the force applied over a physics step. start: the law at the rate at the start "
+        "of the step (stick_slip: the time-stepping projection); mean: the law's mean over the step, the rate "
+        "taken as linear through it and the friction force's own part of that rate solved implicitly (tanh: "
+        "first order at a rate reversal inside the step becomes second order, no chatter at any v_eps; "
+        "stick_slip: exact with the other forces held over the step, a reversal inside it slides each way for "
+        "its part of the step, and the other forces include this step's actuator force)")
 
     @model_validator(mode="after")
     def _law(self):
@@ -84,15 +86,22 @@ def _tanh_step_mean(Fc, w0, w1, g):
 
 
 @numba.njit(cache=True)
-def _kernel(s, v, t, dt, p, st):
+def _kernel(s, v, t, dt, p, st, fa):
     """The force of one corner; p = [F_c, m_r, v_eps, law (0 stick_slip, 1 tanh, 2 tanh with step_force
-    mean)], st = [F, v_prev, has v_prev (1/0), stuck].  The laws of the class docstring:
-    ``F = −F_c·tanh(v/v_eps)``, its mean over the step (:func:`_tanh_step_mean`), or the time-stepping
-    ``F = clip(−m_r·(v/dt + a_other), −F_c, F_c)``; ``a_other`` from the previous step."""
+    mean, 3 stick_slip with step_force mean)], st = [F, v_prev, has v_prev (1/0), stuck, fa_prev]; ``fa`` the
+    actuator force of this step on the corner.  The laws of the class docstring: ``F = −F_c·tanh(v/v_eps)``,
+    its mean over the step (:func:`_tanh_step_mean`), the time-stepping
+    ``F = clip(−m_r·(v/dt + a_other), −F_c, F_c)`` (``a_other`` from the previous step), or its exact mean
+    over the step (``a_other`` with this step's actuator force; a reversal inside the step)."""
     Fc = p[0]
     a_other = 0.0
     if p[3] != 1.0 and st[2] != 0.0:
         a_other = (v - st[1]) / dt - st[0] / p[1]
+        if p[3] == 3.0:  # the actuator's force of this step in place of the last step's (a control instant's jump)
+            a_other += (fa - st[4]) / p[1]
+    elif p[3] == 3.0:
+        a_other = fa / p[1]
+    stuck = False
     if p[3] == 1.0:
         F = -Fc * np.tanh(v / p[2])
     elif p[3] == 2.0:
@@ -102,10 +111,23 @@ def _kernel(s, v, t, dt, p, st):
         lo = -Fc
         F = lo if x < lo else x  # min(max(x, lo), hi)
         F = Fc if F > Fc else F
+        stuck = abs(F) < Fc * (1 - 1e-9)
+        if p[3] == 3.0 and v != 0.0:
+            # the other forces push against the sliding direction harder than the friction holds (|a| > F_c/m_r):
+            # the rate reverses after tau and slides on the other way (the projection above, which applies one
+            # sign or sticks over the whole step, is exact in every other case)
+            b = Fc / p[1]
+            av = a_other if v > 0.0 else -a_other
+            if av < -b:
+                tau = abs(v) / (b - av)
+                if tau < dt:
+                    F = (Fc if v > 0.0 else -Fc) * (1.0 - 2.0 * tau / dt)
+                    stuck = False
     st[0] = F
     st[1] = v
     st[2] = 1.0
-    st[3] = 1.0 if abs(F) < Fc * (1 - 1e-9) else 0.0
+    st[3] = 1.0 if (stuck if p[3] == 3.0 else abs(F) < Fc * (1 - 1e-9)) else 0.0
+    st[4] = fa
     return F
 
 
@@ -127,7 +149,14 @@ class CoulombFriction(Effect):
       ``1/(1/m_s + 1/m_u)`` for the quarter car; evaluated at the initial pose and nominal masses) and
       ``a_k`` the relative acceleration from all other forces, estimated from the previous step.  The suspension sticks for good
       under loads below F_c (no creep) and slips with exactly ±F_c otherwise.  Error is first order in dt
-      at the stick/slip switches.
+      at the stick/slip switches.  With ``step_force: mean`` the force is the exact law's mean over the step
+      with the other forces held: the same projection, except that when the other forces push against the
+      sliding direction harder than F_c the rate reverses inside the step at ``tau = |v|/(F_c/m_r + |a_k|)``
+      and slides on, ``F = F_c·sgn(v)·(1 − 2·tau/dt)`` (the projection applies the new sign over the whole
+      step: an impulse error up to 2·F_c·dt per reversal, always the same way); and ``a_k`` takes the
+      actuator force of this step in place of the last step's, ``+ (F_act,k − F_act,k−1)/m_r`` (the effect
+      reads it: ``reads_actuator_force``), so a command's jump at a control instant is not a step late.  On
+      the thesis Ch. 4 dirt road these two errors biased the MRAC's least-squares estimates with the step.
     - ``tanh``: ``F = −F_c·tanh(v/v_eps)``: smooth, but a stiff damper ``F_c/v_eps`` near v = 0 instead of
       sticking, so under a net load ``P < F_c`` it creeps at ``v_eps·atanh(P/F_c)``.  Measured against exact
       stick-slip (tests/test_effects.py): < 1 % on a sliding-dominated ride, but 30–70 % trajectory error on
@@ -181,12 +210,14 @@ class CoulombFriction(Effect):
                  "stick/dead band in travel on small inputs; flat spots at reversals")
 
     kernel = staticmethod(_kernel)
+    # stick_slip with step_force mean estimates the other forces over the step with this step's actuator force
+    reads_actuator_force = True
 
     def kernel_data(self):
         Fc = corner_array(self, "force")
         laws = self.p.law if isinstance(self.p.law, list) else [self.p.law] * self.ctx.n_cars
         steps = self.p.step_force if isinstance(self.p.step_force, list) else [self.p.step_force] * self.ctx.n_cars
-        code = np.array([0.0 if lw != "tanh" else 2.0 if sf == "mean" else 1.0
+        code = np.array([(3.0 if sf == "mean" else 0.0) if lw != "tanh" else 2.0 if sf == "mean" else 1.0
                          for lw, sf in zip(laws, steps)]).reshape(-1, 1)  # per car
         tanh = code == 1.0  # the start-of-step tanh law (the mean over the step is implicit: no chatter)
         m_r = np.broadcast_to(reduced_mass(self.ctx), Fc.shape)
@@ -200,7 +231,7 @@ class CoulombFriction(Effect):
                           f"{float(np.max(gain)):.2g} > 1): the friction force will chatter near zero travel "
                           f"rate; use v_eps >= {vmin:.2g} m/s or a smaller sim.dt", stacklevel=3)
         # st: F = 0 and stuck = 1 (|0| < F_c; 0 for F_c = 0) until the first step
-        return self.pack(Fc, m_r, v_eps, code), self.pack(0.0, 0.0, 0.0, (0.0 < Fc * (1 - 1e-9)))
+        return self.pack(Fc, m_r, v_eps, code), self.pack(0.0, 0.0, 0.0, (0.0 < Fc * (1 - 1e-9)), 0.0)
 
     def kernel_signals(self):
         """``force``: the friction force (N); ``stuck``: 1 while the friction holds below F_c."""
