@@ -9,6 +9,12 @@ Context for the 1 % budget (measured when this file was written): the simulator'
 semi-implicit Euler, implicit tendon damping) is first order; the *linear* quarter car alone, on a 0.02 m
 sine, gives body-position NRMSE ≈ 0.2 % at 1.5 Hz, 0.8 % at 5 Hz and 2.3 % at 11 Hz, halving with dt.  The
 roads below therefore excite the effects mainly through low-frequency, large-amplitude inputs.
+
+Tests with the ``python_loop`` fixture run the Python loop (``SUSPENSION_SIM_COMPILED=0``): each would compile
+a loop for an effect/model combination no other test uses (10-15 CPU-s on a cold compile cache), where the
+Python loop runs their few seconds of simulation in about one; the compiled loop runs the same kernels with
+the same results, which tests/test_kernels_effects.py (every effect at once, bit for bit) and
+tests/test_compiled_loop.py (every scenario file, on every model) check.
 """
 from __future__ import annotations
 
@@ -104,6 +110,12 @@ def run_sim(effects, road_params, duration, vehicle_params=None, variations=None
             "sim": {"duration": duration, "dt": dt, "control_dt": 1e-3, "log_dt": 1e-3}})
     scs = [sc(e) for e in (cars or [effects])]
     return [r.ts for r in Simulation(scs).run()]
+
+
+@pytest.fixture
+def python_loop(monkeypatch):
+    """The Python loop for this test (see the module docstring)."""
+    monkeypatch.setenv("SUSPENSION_SIM_COMPILED", "0")
 
 
 def compare(ts, ref_out, channels=("body_z", "travel", "body_acc"), mask=None):
@@ -308,7 +320,7 @@ def check(errs, limit=0.01):
         {k: round(100 * v, 3) for k, v in errs.items()})
 
 
-def test_quadratic_damping_trajectory_ensemble():
+def test_quadratic_damping_trajectory_ensemble(python_loop):
     """Two cars with different C_v in one ensemble, each against its own reference."""
     rp = dict(amplitude=0.04, frequency=1.5, fade_in=0.3)
     cvs = [800.0, 2000.0]
@@ -320,7 +332,7 @@ def test_quadratic_damping_trajectory_ensemble():
         check(compare(ts, out))
 
 
-def test_asymmetric_damping_trajectory_coefficients():
+def test_asymmetric_damping_trajectory_coefficients(python_loop):
     rp = dict(amplitude=0.04, frequency=1.5, fade_in=0.3)
     ts, = run_sim([{"type": "asymmetric_damping", "params": {"c_comp": 300.0, "c_reb": 2500.0}}], rp, 3.0)
     ref = QuarterCarRef(road=road_fn(rp), suspension_forces=[lambda s, v, t: -(2500.0 if v > 0 else 300.0) * v])
@@ -329,7 +341,7 @@ def test_asymmetric_damping_trajectory_coefficients():
     check(compare(ts, out))
 
 
-def test_asymmetric_damping_trajectory_table_replacing_linear_damper():
+def test_asymmetric_damping_trajectory_table_replacing_linear_damper(python_loop):
     """A digressive damper map replacing the linear damper (vehicle damping 0)."""
     tab = [[-1.0, -900.0], [-0.1, -300.0], [0.0, 0.0], [0.1, 500.0], [1.0, 1600.0]]
     rp = dict(amplitude=0.04, frequency=1.5, fade_in=0.3)
@@ -398,7 +410,7 @@ def test_coulomb_friction_tanh_trajectory():
 
 
 @pytest.mark.parametrize("damping", [0.0, 2000.0])
-def test_bump_stop_trajectory(damping):
+def test_bump_stop_trajectory(damping, python_loop):
     """Stops 3 cm (compression) / 4 cm (extension) away, hit on every cycle of a 5 cm, 1.3 Hz sine.
 
     With stop damping the stop force jumps by c·v at contact, so the body acceleration is discontinuous
@@ -431,7 +443,7 @@ def test_bump_stop_trajectory(damping):
     check(compare(ts, out, ("body_acc",), mask=mask))
 
 
-def test_cubic_stiffness_trajectory():
+def test_cubic_stiffness_trajectory(python_loop):
     rp = dict(amplitude=0.04, frequency=1.5, fade_in=0.3)
     k3 = 5e6
     ts, = run_sim([{"type": "cubic_stiffness", "params": {"k3": k3}}], rp, 3.0)
@@ -441,7 +453,7 @@ def test_cubic_stiffness_trajectory():
 
 
 @pytest.mark.parametrize("ct", [0.0, 1000.0])
-def test_tire_liftoff_trajectory(ct):
+def test_tire_liftoff_trajectory(ct, python_loop):
     """A 0.1 m, 1.4 Hz sine lifts the wheel off the road on every cycle (≈ 20 % of the time); with and
     without tire damping."""
     rp = dict(amplitude=0.1, frequency=1.4, fade_in=0.3)
@@ -506,7 +518,7 @@ def test_damping_varying_as_a_sine_follows_the_reference():
 
 # ------------------------------------------------------------------------------------------------------
 # wiring on multi-corner models
-def test_per_corner_parameters_and_corner_selection_on_the_half_car():
+def test_per_corner_parameters_and_corner_selection_on_the_half_car(python_loop):
     """Half car: quadratic damping with one C_v per corner on both corners, a bump stop on the rear only.
     The logged effect force of each corner equals the force laws evaluated on that corner's logged travel."""
     sc = parse_scenario({
@@ -541,7 +553,7 @@ def test_tire_effect_on_a_model_without_tire_is_a_scenario_error():
 
 
 @pytest.mark.parametrize("amp,freq", [(0.15, 1.2), (0.15, 0.8)], ids=["stops", "sticking"])
-def test_thesis_fail_safe_sdof_rig_all_effects(amp, freq):
+def test_thesis_fail_safe_sdof_rig_all_effects(amp, freq, python_loop):
     """The thesis's Ch. 4 fail-safe SDOF plant (digest): M = 250 kg, K = 5000 N/m, no linear damper,
     C_v = 250 N·s²/m², Coulomb F = 1000 N, elastic stops K_es = 40 kN/m at |z| > D/2 = 0.125 m, on a
     moving base; against the scipy SDOF with exact stick-slip (:class:`reference_models.SdofRef`).
@@ -597,7 +609,7 @@ def test_effect_context_carries_the_effective_mass_along_each_tendon():
                                [[1 / (1 / 85.0 + 1 / 4.5), 4.5]], rtol=1e-9)
 
 
-def test_friction_on_the_two_dof_primary_sticks():
+def test_friction_on_the_two_dof_primary_sticks(python_loop):
     """100 N of friction on the 4.5 kg primary of the two-DOF rig under a 2 mm base motion: the primary
     suspension stays stuck (µm) while the secondary works."""
     sc = parse_scenario({
