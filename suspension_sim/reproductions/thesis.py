@@ -635,8 +635,10 @@ def ch4_load_step(ctx) -> ItemOutput:
              "before it).  The "
              "printed law does not move under these perturbations (last column), the Q variant spreads over "
              "centimetres and bursts: its single runs have no converged value, and its ensemble means "
-             "(q_ensemble_*) carry their standard errors: they agree across the steps within them (the table gives the "
-             "difference in standard errors), but they are not known to 2 % (undecided; that would take ~10³–10⁵ runs).",
+             "(q_ensemble_*) carry their standard errors (the step-halving table gives each change in standard errors of "
+             "the difference).  They are not known to 2 % (that would take ~10³–10⁵ runs per step), and at RK4 "
+             "0.0625 ms the level and force means moved by more than 2 standard errors on halving: the distribution of "
+             "the chaotic runs moves with the step (the page).",
              "The wrong design's remaining Θ gap at 60 s is compared against the initial gap (the claim is the "
              "fraction of the initial distance closed): it is the small difference of two Θ trajectories that each "
              "travel ≈ 5 (scaled) and converge at first order (wrong/right_theta_travel_60s, each against itself).  "
