@@ -170,6 +170,8 @@ class DiscreteMRAC:
     covariance P shared by the m columns of Θ (the thesis's matrix least squares).  After each update the
     β0⁻¹ block (the rows of Ȳ*) is projected: its diagonal keeps the sign of the nominal value and a
     magnitude between ``beta_inv_range`` × nominal (the thesis's sign/magnitude constraint on (β0)⁻¹).
+    The same update with an instrument z in place of φ̃ in Pφ (P ← P − Pzφ̃ᵀP/(1 + φ̃ᵀPz) + Q) is recursive
+    instrumental variables (:func:`dm_step`'s ``zo``; ``thesis_mimo_mrac``'s ``estimator: iv_probe``, ours).
 
     ``kappa`` < 1 weights the control increments (Goodwin–Sin weighted one-step-ahead control with the
     cost (Y − Y*)² + λ(ΔU)², κ = β0²/(β0² + λ)): U[k] = κ·Θᵀφ[k] + (1 − κ)·U[k−1].  The pure d-step-ahead
@@ -451,12 +453,17 @@ def dm_theta_dot(st, TH, tj, tc, c, v, npar):
 
 
 @numba.njit(cache=True)
-def dm_step(p, st, hd, y, yo, ybs, ybo, estimate):
+def dm_step(p, st, hd, y, yo, ybs, ybo, zo):
     """One step of the discrete MRAC (:class:`DiscreteMRAC`) for one car: y[yo : yo + m] the output Y[k],
-    ybs[ybo : ybo + m] the filtered target Ȳ*[k+D].  Shifts the histories, updates Θ and P by recursive
-    least squares on the identity U[k−D] = Θᵀφ̃[k−D] (covariance addition while trace(P) + trace(Q) stays
-    below the bound, then the (β0)⁻¹ projection), and computes U[k] = κ·Θᵀφ[k] + (1 − κ)·U[k−1], clipped to
-    ±u_max when set.  U[k] is left in the newest U slot, st[U : U + m] (U = int(p[hd + 7]))."""
+    ybs[ybo : ybo + m] the filtered target Ȳ*[k+D].  Shifts the histories, updates Θ and P on the identity
+    U[k−D] = Θᵀφ̃[k−D] with the instrument z[k−D]: Θ += Pz·ε/(1 + φ̃ᵀPz), P −= Pz·(Pᵀφ̃)ᵀ/(1 + φ̃ᵀPz), then the
+    covariance addition while trace(P) + trace(Q) stays below the bound, and the (β0)⁻¹ projection; and computes
+    U[k] = κ·Θᵀφ[k] + (1 − κ)·U[k−1], clipped to ±u_max when set.  U[k] is left in the newest U slot,
+    st[U : U + m] (U = int(p[hd + 7])).
+
+    ``zo`` < 0: z = φ̃, recursive least squares (the thesis; P stays symmetric and is kept so).  ``zo`` ≥ 0:
+    recursive instrumental variables with z[k−D] at st[zo : zo + p] (the caller's), st[zo + p : zo + 2p] a
+    scratch for Pᵀφ̃ (P is not symmetric then)."""
     m = int(p[hd])
     D = int(p[hd + 1])
     npar = int(p[hd + 2])
@@ -481,40 +488,47 @@ def dm_step(p, st, hd, y, yo, ybs, ybo, estimate):
         st[Y + c] = y[yo + c]
     for c in range(m):
         st[YB + c] = p[hd + 17] * y[yo + c] + p[hd + 18] * st[Y + m + c] + p[hd + 19] * st[Y + 2 * m + c]
-    if estimate:
-        started = False
-        for j in range(npar):
-            st[PHO + j] = st[PH + (D - 1) * npar + j]
-            if st[PHO + j] != 0.0:
-                started = True
+    started = False
+    for j in range(npar):
+        st[PHO + j] = st[PH + (D - 1) * npar + j]
+        if st[PHO + j] != 0.0:
+            started = True
+    for c in range(m):
+        st[PHO + bi + c] = st[YB + c] * p[SC + bi + c]
+    if started:  # rls_update with target U[k−D]
+        iv = zo >= 0
+        Z = zo if iv else PHO  # the instrument (least squares: φ̃ itself)
+        for i in range(npar):  # Pz
+            st[PPHI + i] = k_dot(st, PP + i * npar, st, Z, npar)
+        PT = PPHI  # Pᵀφ̃: Pz when P is symmetric and z = φ̃
+        if iv:
+            PT = zo + npar
+            for i in range(npar):
+                st[PT + i] = k_dot_seq(st, PP + i, npar, st, PHO, 1, npar)
+        denom = 1.0 + k_dot(st, PHO, st, PPHI, npar)
         for c in range(m):
-            st[PHO + bi + c] = st[YB + c] * p[SC + bi + c]
-        if started:  # rls_update with target U[k−D]
-            for i in range(npar):
-                st[PPHI + i] = k_dot(st, PP + i * npar, st, PHO, npar)
-            denom = 1.0 + k_dot(st, PHO, st, PPHI, npar)
+            st[ER + c] = st[U + (D - 1) * m + c] - dm_theta_dot(st, TH, tj, tc, c, PHO, npar)
+        for j in range(npar):
+            g = st[PPHI + j] / denom
             for c in range(m):
-                st[ER + c] = st[U + (D - 1) * m + c] - dm_theta_dot(st, TH, tj, tc, c, PHO, npar)
+                st[TH + j * tj + c * tc] += g * st[ER + c]
+        for i in range(npar):
             for j in range(npar):
-                g = st[PPHI + j] / denom
-                for c in range(m):
-                    st[TH + j * tj + c * tc] += g * st[ER + c]
+                st[PP + i * npar + j] -= st[PPHI + i] * st[PT + j] / denom
+        if (k_sum_pw(st, PP, npar + 1, npar) + p[hd + 13]) < p[hd + 14]:
             for i in range(npar):
-                for j in range(npar):
-                    st[PP + i * npar + j] -= st[PPHI + i] * st[PPHI + j] / denom
-            if (k_sum_pw(st, PP, npar + 1, npar) + p[hd + 13]) < p[hd + 14]:
-                for i in range(npar):
-                    st[PP + i * (npar + 1)] += p[Q + i]
+                st[PP + i * (npar + 1)] += p[Q + i]
+        if not iv:
             for i in range(npar):
                 for j in range(i + 1, npar):
                     v = 0.5 * (st[PP + i * npar + j] + st[PP + j * npar + i])
                     st[PP + i * npar + j] = v
                     st[PP + j * npar + i] = v
-            lo = int(p[hd + 15])
-            hi = int(p[hd + 16])
-            for c in range(m):
-                kk = TH + (bi + c) * tj + c * tc
-                st[kk] = min(max(st[kk], p[lo + c]), p[hi + c])
+        lo = int(p[hd + 15])
+        hi = int(p[hd + 16])
+        for c in range(m):
+            kk = TH + (bi + c) * tj + c * tc
+            st[kk] = min(max(st[kk], p[lo + c]), p[hi + c])
     # φ[k] = [−Y[k], −Y[k−1], −U[k−1], …, −U[k−D], −1, Ȳ*[k+D]] · scaling
     j = 0
     for k in range(2):

@@ -59,7 +59,6 @@ from suspension_sim.registry import CONTROLLERS
 
 from .base import Controller
 from .thesis_common import (DM_HEADER, ZOH_HEADER, DiscreteMRAC, KernelLayout, ZOHFilter, am_poly, darma, dm_step,
-                            dm_theta_dot,
                             dm_theta_strides, k_dot, predictor, ref_value, shared_value, stamped_cache,
                             theta_from_predictor, zoh_update, zoh_y)
 
@@ -121,31 +120,23 @@ _ST_RZ, _ST_RP, _ST_RA, _ST_E, _ST_BIAS, _ST_WIN, _ST_Y, _ST_YB, _ST_R, _ST_PR, 
 
 
 @numba.njit(cache=True)
-def _iv_update(p, st, hd, pa, ie, y, yo):
-    """Recursive instrumental variables (``estimator: iv_probe``, ours) on the estimator's identity
-    U[k−D] = Θᵀφ̃[k−D], done before :func:`dm_step` (called then without its own update): the instrument z[k−D] is
-    φ̃[k−D] built from the nominal rigid-body DARMA model's response Ye to the probe e alone,
-    z = [−Ye[k−D], −Ye[k−D−1], −e[k−D−1], …, −e[k−2D], −1, a_m(q⁻¹)Ye[k]], independent of the road.  Θ += Pz·ε/(1 +
-    φ̃ᵀPz), P −= Pz·(Pᵀφ̃)ᵀ/(1 + φ̃ᵀPz), then the covariance addition and the (β0)⁻¹ projection as dm_step's.  The
-    IV state at ie: e history (max(D, 2) + 1 rows of 2), Ye history (3 × 2), the z history (D + 1 rows of p),
-    scratch (4p + 2: Pz, Pᵀφ̃, φ̃, z, Ye[k])."""
+def _iv_instrument(p, st, hd, pa, ie):
+    """The instrument of recursive instrumental variables (``estimator: iv_probe``, ours) for :func:`dm_step`'s
+    update on the identity U[k−D] = Θᵀφ̃[k−D]: z[k−D] is φ̃[k−D] built from the nominal rigid-body DARMA model's
+    response Ye to the probe e alone, z = [−Ye[k−D], −Ye[k−D−1], −e[k−D−1], …, −e[k−2D], −1, a_m(q⁻¹)Ye[k]],
+    independent of the road.  Advances Ye and the z history and returns the st offset of z[k−D] (followed by
+    dm_step's scratch of p values).  The IV state at ie: e history (max(D, 2) + 1 rows of 2), Ye history (3 × 2),
+    the z history (D + 1 rows of p), scratch (2p + 2: z[k−D], dm_step's Pᵀφ̃, Ye[k])."""
     m = 2
     D = int(p[hd + 1])
     npar = int(p[hd + 2])
-    TH = int(p[hd + 4])
-    PP = int(p[hd + 5])
-    Yh = int(p[hd + 6])
-    U = int(p[hd + 7])
-    PH = int(p[hd + 8])
     SC = int(p[hd + 11])
-    Q = int(p[hd + 12])
-    tj, tc = dm_theta_strides(p, hd)
     bi = npar - m
     ne = max(D, 2) + 1
     iy = ie + 2 * ne
     iz = iy + 6
     s0 = iz + (D + 1) * npar
-    PZ, PTF, F, Z, YE = s0, s0 + npar, s0 + 2 * npar, s0 + 3 * npar, s0 + 4 * npar
+    Z, YE = s0, s0 + 2 * npar
     # Ye[k] = −A1 Ye[k−1] − A2 Ye[k−2] + B1 e[k−1] + B2 e[k−2]
     for r in range(2):
         v = 0.0
@@ -153,45 +144,10 @@ def _iv_update(p, st, hd, pa, ie, y, yo):
             v += (-p[pa + 2 * r + c] * st[iy + c] - p[pa + 4 + 2 * r + c] * st[iy + 2 + c]
                   + p[pa + 8 + 2 * r + c] * st[ie + c] + p[pa + 12 + 2 * r + c] * st[ie + 2 + c])
         st[YE + r] = v
-    started = False
     for j in range(npar):
-        st[F + j] = st[PH + (D - 1) * npar + j]
         st[Z + j] = st[iz + (D - 1) * npar + j]
-        if st[F + j] != 0.0:
-            started = True
-    for c in range(2):  # the new last blocks: measured Ȳ[k] (regressor) and a_m(q⁻¹)Ye[k] (instrument)
-        st[F + bi + c] = (p[hd + 17] * y[yo + c] + p[hd + 18] * st[Yh + c] + p[hd + 19] * st[Yh + m + c]) * p[SC + bi + c]
+    for c in range(2):  # the new last block: a_m(q⁻¹)Ye[k]
         st[Z + bi + c] = (p[hd + 17] * st[YE + c] + p[hd + 18] * st[iy + c] + p[hd + 19] * st[iy + 2 + c]) * p[SC + bi + c]
-    if started:
-        for i in range(npar):
-            a = 0.0
-            b = 0.0
-            for j in range(npar):
-                a += st[PP + i * npar + j] * st[Z + j]
-                b += st[PP + j * npar + i] * st[F + j]
-            st[PZ + i] = a
-            st[PTF + i] = b
-        denom = 1.0
-        for j in range(npar):
-            denom += st[F + j] * st[PZ + j]
-        for c in range(2):
-            e = st[U + (D - 1) * m + c] - dm_theta_dot(st, TH, tj, tc, c, F, npar)
-            for j in range(npar):
-                st[TH + j * tj + c * tc] += st[PZ + j] / denom * e
-        for i in range(npar):
-            for j in range(npar):
-                st[PP + i * npar + j] -= st[PZ + i] * st[PTF + j] / denom
-        tr = 0.0
-        for i in range(npar):
-            tr += st[PP + i * (npar + 1)]
-        if tr + p[hd + 13] < p[hd + 14]:
-            for i in range(npar):
-                st[PP + i * (npar + 1)] += p[Q + i]
-        lo = int(p[hd + 15])
-        hi = int(p[hd + 16])
-        for c in range(2):
-            kk = TH + (bi + c) * tj + c * tc
-            st[kk] = min(max(st[kk], p[lo + c]), p[hi + c])
     # histories: Ye, then z[k] = [−Ye[k], −Ye[k−1], −e[k−1] … −e[k−D], −1, (Ȳe filled at its update)] · scaling
     for c in range(2):
         st[iy + 4 + c] = st[iy + 2 + c]
@@ -214,6 +170,7 @@ def _iv_update(p, st, hd, pa, ie, y, yo):
     for c in range(2):
         st[iz + j] = 0.0
         j += 1
+    return Z
 
 
 @stamped_cache
@@ -240,9 +197,8 @@ def _kernel(t, y, p, st, u):
     for c in range(2):
         st[_ST_YB + c] = p[_PS + 6] * st[TG + c] + p[_PS + 7] * st[TG + 2 + c] + p[_PS + 8] * st[TG + 4 + c]
     iv = p[_PS + 13] != 0.0
-    if iv:
-        _iv_update(p, st, _HDM, int(p[_PS + 14]), int(p[_PS + 15]), st, _ST_Y)
-    dm_step(p, st, _HDM, st, _ST_Y, st, _ST_YB, not iv)
+    zo = _iv_instrument(p, st, _HDM, int(p[_PS + 14]), int(p[_PS + 15])) if iv else -1
+    dm_step(p, st, _HDM, st, _ST_Y, st, _ST_YB, zo)
     U = int(p[_HDM + 7])
     if p[_PS + 12] > 0.0:  # probing: ±amplitude, Park–Miller generator (exact in float64), in U's history too
         for c in range(2):
@@ -359,7 +315,7 @@ class MIMOMRAC(Controller):
         if self.iv:
             pa = lay.p(self.aux)
             ne = max(self.D, 2) + 1
-            ie = lay.st(np.zeros(2 * ne + 6 + (self.D + 1) * core.npar + 4 * core.npar + 2))
+            ie = lay.st(np.zeros(2 * ne + 6 + (self.D + 1) * core.npar + 2 * core.npar + 2))
             lay.set_p(_PS + 14, [pa, ie])
         return lay.arrays()
 

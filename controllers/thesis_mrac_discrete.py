@@ -100,7 +100,7 @@ def _kernel(t, y, p, st, u):
     st[TG] = zoh_y(p, st, _HREF, 0, 0)
     st[_ST_YB] = p[_PS + 6] * st[TG] + p[_PS + 7] * st[TG + 1] + p[_PS + 8] * st[TG + 2]
     st[_ST_X] = x
-    dm_step(p, st, _HDM, st, _ST_X, st, _ST_YB, True)
+    dm_step(p, st, _HDM, st, _ST_X, st, _ST_YB, -1)
     U = int(p[_HDM + 7])
     UT = st[U]
     ff = 0.0
