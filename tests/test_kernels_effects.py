@@ -230,8 +230,9 @@ def _coulomb_mean_by_hand(v, a, m_r, Fc, n=20000):
 
 def test_coulomb_friction_stick_slip_step_mean_law():
     """stick_slip with step_force: mean: the exact law's mean over the step with the other forces held, their
-    acceleration a_k = (v_k − v_{k−1})/dt − (F_{k−1} + F_act,k−1)/m_r + F_act,k/m_r (this step's actuator force,
-    which the effect reads), checked against sub-stepped Coulomb friction: sliding, sticking, a rate reversal
+    acceleration a_k = 2·g_{k−1} − g_{k−2} + F_act,k/m_r, g_{k−1} = (v_k − v_{k−1})/dt − (F_{k−1} + F_act,k−1)/m_r
+    (the other forces' mean over the last step extrapolated; this step's actuator force, which the effect reads),
+    checked against sub-stepped Coulomb friction: sliding, sticking, a rate reversal
     inside a step that slides on, and actuator jumps.  The start-of-step law on the same sequence is off by
     more than F_c/2 (the check can fail)."""
     m_r, Fc = 50.0, 100.0
@@ -241,9 +242,11 @@ def test_coulomb_friction_stick_slip_step_mean_law():
     for mode in ("mean", "start"):
         eff = build("coulomb_friction", [{"force": Fc, "step_force": mode}], n_sel=1)
         assert type(eff).reads_actuator_force
-        F_prev, v_prev, fa_prev, kinds = 0.0, None, 0.0, set()
+        F_prev, v_prev, fa_prev, g_prev, kinds = 0.0, None, 0.0, None, set()
         for v, fa in seq:
-            a = fa / m_r if v_prev is None else (v - v_prev) / DT - (F_prev + fa_prev) / m_r + fa / m_r
+            g = 0.0 if v_prev is None else (v - v_prev) / DT - (F_prev + fa_prev) / m_r
+            a = (g if g_prev is None else 2.0 * g - g_prev) + fa / m_r
+            g_prev = None if v_prev is None else g
             ref = _coulomb_mean_by_hand(v, a, m_r, Fc)
             got = eff.force(np.array([[0.0]]), np.array([[v]]), 0.0, DT, np.array([[fa]]))[0, 0]
             if mode == "mean":
