@@ -252,9 +252,6 @@ def fitted_values(rep) -> dict:
     for k, v in fp.items():  # the effects' parameters by their model labels
         if "." in k and k not in P:
             P[k] = v
-    for e in rep["effects"]:  # a linear parameter an effect was fitted in place of is held at 0
-        for k in ((e.get("evidence") or {}).get("model_change") or {}).get("in_place_of") or {}:
-            P.setdefault(k, 0.0)
     c = P.get("damping")
     if c is not None:  # an asymmetric damper adds to the linear one: its total rates
         P["total_c_comp"] = c + float(P.get("asymmetric_damping.c_comp", 0.0))

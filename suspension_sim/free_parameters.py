@@ -16,16 +16,17 @@ stops): each side's gap starts at 0.7 of the largest travel to that side, the st
                        "gap_extension": FreeParameter("s_ext", init=0.7, lo=1e-6, hi=2.0, size=False),
                        "stiffness": FreeParameter("max(k, F/s)", init=2.0)}
 
-An effect that *generalises* a linear element of the car declares it (``contains = {quantity: (param, ...)}``,
-quantity ``damping`` or ``stiffness``): with every listed parameter equal to the car's linear suspension
-``quantity`` of its corners (and that set to 0), the effect is that element.  Asymmetric damping contains
-the linear damping (``{"damping": ("c_comp", "c_reb")}``): c_comp = c_reb = c is a linear damper c.  Beside a
-free linear damping of the same corners the two would parametrise the same thing twice (adding δ to the
-damping and taking it from both rates changes nothing: the fit is singular along that line, and the search
-read the damping "driven to zero" by a stand-in).  The workflow then fits the effect *in place of* that
-parameter: the linear parameter is held at 0, the listed parameters are the totals (started at the current
-linear value, within its bounds), and the effect's size is how far they differ from one another (the effect
-with all of them equal is the linear element it replaced).
+An effect that *generalises* a linear element of the car declares it (``contains = {quantity: (pos, neg)}``,
+quantity ``damping`` or ``stiffness``, two of its parameters): with both equal to the car's linear suspension
+``quantity`` of its corners (and that set to 0), the effect is that element.  Asymmetric damping contains the
+linear damping (``{"damping": ("c_reb", "c_comp")}``: c_comp = c_reb = c is a linear damper c).  Beside a free
+linear damping of the same corners the three would parametrise two totals (adding δ to the damping and taking
+it from both rates changes nothing: the fit is singular along that line, and the search read the damping
+"driven to zero" by a stand-in).  The workflow then fits the pair as one signed difference ``pos_minus_neg``
+= pos − neg (pos = max(d, 0), neg = max(−d, 0)): the linear parameter carries what the two sides share, the
+effect the excess of one side, and its size is that difference.  (Fitting the totals in the effect with the
+linear damping held at 0 was tried: the effect's force is explicit in the physics step while MuJoCo's
+linear damper is implicit, and the model then missed the noise-free blind records by about twice as much.)
 
 An effect may also say what fitted values mean on the record (``fitted_notes(params, travel, ci95) ->
 {param: text}``, static; e.g. a bump stop's gap beyond the largest travel, or not distinguishable from one:

@@ -62,7 +62,7 @@ class Candidate:
         raise NotImplementedError
 
     size_names: list = []
-    replaces: dict = {}  # linear parameters an effect is fitted in place of (held at 0), with their values before
+    contains_free: list = []  # free linear parameters the effect contains (fitted beside them as a signed difference)
 
 
 def _free_params(prefix, decl: dict, sc: Scales):
@@ -100,16 +100,16 @@ class EffectCandidate(Candidate):
 
     def contained(self, spec: ModelSpec) -> dict:
         """The free linear parameters of ``spec`` that this effect contains on its corners (the effect's
-        ``contains`` declaration, :mod:`suspension_sim.free_parameters`): {vehicle parameter: [the effect's
-        parameters that equal it when the effect is that element]}."""
+        ``contains`` declaration, :mod:`suspension_sim.free_parameters`): {vehicle parameter: (the effect's two
+        parameters that equal it when the effect is that element)}."""
         from .engine import linear_params
 
         free = {f.name for f in spec.free}
         out = {}
-        for qty, pnames in (getattr(self.ecls, "contains", None) or {}).items():
+        for qty, pair in (getattr(self.ecls, "contains", None) or {}).items():
             for vp in linear_params(spec.kind, qty, self.corners):
                 if vp in free:
-                    out[vp] = [f"{self.name}.{pn}" for pn in pnames]
+                    out[vp] = tuple(pair)
         return out
 
     def augment(self, spec, sc):
@@ -117,32 +117,24 @@ class EffectCandidate(Candidate):
         label = self.name
         sp.effects.append(EffectEntry(label, self.etype, self.corners, dict(getattr(self.ecls, "fit_settings", {}) or {})))
         fps, own = _free_params(f"{label}.", self.ecls.free_parameters, sc)
-        # an effect that contains a free linear element of its corners is fitted in its place: that parameter is
-        # held at 0 and the effect's parameters are the totals, started at its value within its bounds (the two
-        # side by side parametrise the same line twice: free_parameters.py, ``contains``)
+        # beside a free linear element of its corners that it contains, the effect's two parameters are fitted as
+        # one signed difference (free_parameters.py, ``contains``): the linear parameter carries what they share
         held = self.contained(spec)
-        self.replaces = {vp: float(spec.P[vp]) for vp in held}
-        totals = {}
-        for vp, pnames in held.items():
-            fv = next(f for f in spec.free if f.name == vp)
-            for pn in pnames:
-                totals[pn] = (float(spec.P[vp]), fv.lo, fv.hi)
-        for i, f in enumerate(fps):
-            if f.name in totals:
-                v, lo, hi = totals[f.name]
-                f.lo, f.hi = max(f.lo, lo), min(f.hi, hi)
-                f.init = float(np.clip(f.init + v, f.lo, f.hi))
-                for o in own:
-                    o[i] = float(np.clip(o[i] + v, f.lo, f.hi))
+        self.contains_free = list(held)
+        for pos, neg in {pair for pair in held.values()}:
+            names = [f.name for f in fps]
+            i, j = names.index(f"{label}.{pos}"), names.index(f"{label}.{neg}")
+            fi, fj = fps[i], fps[j]
+            signed = FreeParam(f"{label}.{pos}_minus_{neg}", fi.init - fj.init, -np.inf, np.inf, fi.scale,
+                               size=fi.size or fj.size, split=(fi.name, fj.name))
+            sp.P[fi.name], sp.P[fj.name] = max(signed.init, 0.0), max(-signed.init, 0.0)
+            own = [[o[k] for k in range(len(o)) if k not in (i, j)] + [o[i] - o[j]] for o in own]
+            fps = [f for k, f in enumerate(fps) if k not in (i, j)] + [signed]
         for f in fps:
             sp.P[f.name] = f.init
-        for vp in held:
-            sp.P[vp] = 0.0
-        # its size: an effect's sizes against zero; an effect in place of a linear element, how far its totals
-        # differ from one another (all equal, it is that element: reference None, select.size_zero)
-        self.size_names = [(f.name, None) if f.name in totals else f.name for f in fps if f.size]
-        sp.free = [f for f in sp.free if f.name not in held] + fps
-        base = [f.init for f in spec.free if f.name not in held]
+        self.size_names = [f.name for f in fps if f.size]
+        sp.free = sp.free + fps
+        base = [f.init for f in spec.free]
         return sp, [base + o for o in own]
 
     def describe(self, P):
@@ -151,10 +143,7 @@ class EffectCandidate(Candidate):
         e = {"type": self.etype, "params": params}
         if self.corners != "all":
             e["corners"] = list(self.corners)
-        out = {"effect": e}
-        if getattr(self, "replaces", None):
-            out["in_place_of"] = {vp: float(P.get(vp, 0.0)) for vp in self.replaces}
-        return out
+        return {"effect": e}
 
 
 class ActuatorCandidate(Candidate):

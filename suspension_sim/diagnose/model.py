@@ -53,6 +53,9 @@ class FreeParam:
     scale: float = 1.0
     size: bool = False  # measures the strength of an added effect (pruned when indistinguishable from 0)
     unseen: float | None = None  # the value when the fitted window does not determine it (FreeParameter.unseen)
+    # a signed difference of two non-negative parameters (positive part, negative part): the value v sets the
+    # first to max(v, 0) and the second to max(−v, 0) (an effect beside the linear element it contains)
+    split: tuple | None = None
 
 
 @dataclass
@@ -88,6 +91,8 @@ class ModelSpec:
         P = dict(self.P)
         for f, v in zip(self.free, x):
             P[f.name] = float(v)
+            if f.split is not None:
+                P[f.split[0]], P[f.split[1]] = max(float(v), 0.0), max(-float(v), 0.0)
         return P
 
     @property

@@ -241,8 +241,6 @@ def size_zero(fr: FitResult, members: list) -> bool:
     same amount changes nothing, so each of c_comp, c_reb has a huge error while their difference, the
     asymmetry, is sharp: blind battery two_asym_cubic, c_comp 1273 / c_reb 2905 N·s/m "indistinguishable
     from zero" in round 1 with ΔBIC −4287)."""
-    if any(ref is None for _, ref in members):
-        return _differences_zero(fr, [n for n, _ in members])
     d = np.array([fr.params[n] - ref for n, ref in members], float)
     sd = np.array([fr.std.get(n, np.inf) for n, _ in members], float)
     single = [not (abs(di) > ZERO_Z * si) for di, si in zip(d, sd)]
@@ -260,33 +258,6 @@ def size_zero(fr: FitResult, members: list) -> bool:
 
     w = float(d @ np.linalg.pinv(C) @ d)
     return not w > chi2.ppf(chi2.cdf(ZERO_Z ** 2, 1), len(members))
-
-
-def _differences_zero(fr: FitResult, names: list) -> bool:
-    """Whether parameters ``names`` are together indistinguishable from all being equal: their successive
-    differences d = A·θ against zero by the Wald statistic dᵀ·(A·C·Aᵀ)⁻¹·d (one difference: beyond ``ZERO_Z``
-    standard errors).  The size of an effect fitted in place of the linear element it contains (asymmetric
-    damping's total compression and rebound rates: equal, they are a linear damper, the model without it)."""
-    th = np.array([fr.params[n] for n in names], float)
-    sd = np.array([fr.std.get(n, np.inf) for n in names], float)
-    if len(names) < 2 or not np.all(np.isfinite(sd)):
-        return True
-    A = np.diff(np.eye(len(names)), axis=0)
-    spec_names = [f.name for f in fr.spec.free]
-    R = np.eye(len(names))
-    if fr.corr is not None and all(n in spec_names for n in names):
-        idx = [spec_names.index(n) for n in names]
-        Rc = np.asarray(fr.corr, float)[np.ix_(idx, idx)]
-        if np.all(np.isfinite(Rc)):
-            R = Rc
-    Cd = A @ (R * np.outer(sd, sd)) @ A.T
-    d = A @ th
-    if len(d) == 1:
-        return not abs(d[0]) > ZERO_Z * np.sqrt(max(Cd[0, 0], 0.0))
-    from scipy.stats import chi2
-
-    w = float(d @ np.linalg.pinv(Cd) @ d)
-    return not w > chi2.ppf(chi2.cdf(ZERO_Z ** 2, 1), len(d))
 
 
 NOT_SEPARABLE = "not separable on this record"
@@ -570,7 +541,7 @@ class Selector:
         z = float(m.mean() / se) if se > 0 else (np.inf if m.mean() > 0 else 0.0)
         return Eb, Ea, xb, xa, z
 
-    def _judge(self, tr, fr, cur_screen, e_cur, floor_n, size_names):
+    def _judge(self, tr, fr, cur_screen, e_cur, floor_n, size_names, contained=()):
         """Fill the trial's evidence and decide whether it is kept (the gate of the module docstring)."""
         e_new = self._test_errors(fr)
         Eb, Ea, xb, xa, z = self._gate(e_cur, e_new, floor_n)
@@ -587,14 +558,12 @@ class Selector:
         for entry in size_names:
             n, ref = (entry, 0.0) if isinstance(entry, str) else entry
             if n in fr.params:
-                # an effect's sizes together (against zero, or, fitted in place of a linear element, against one
-                # another); a freed nominal parameter's change alone
-                key = (n.rpartition(".")[0] or n) if (isinstance(entry, str) or ref is None) else ("parameter", n)
+                key = (n.rpartition(".")[0] or n) if isinstance(entry, str) else ("parameter", n)
                 groups.setdefault(key, []).append((n, ref))
         zero = [n for members in groups.values() if size_zero(fr, members) for n, _ in members]
         tr.zero_size = bool(zero)
         # a replacement: earlier fitted physics driven to zero by the newcomer (both kept only when separable)
-        tr.replaces = self._replaced(cur_screen, fr, [e if isinstance(e, str) else e[0] for e in size_names])
+        tr.replaces = self._replaced(cur_screen, fr, [e if isinstance(e, str) else e[0] for e in size_names], contained)
         unsep = [r for r in tr.replaces if not (r["separable"] and z > self.z_min)]
         for r in unsep:
             r["blocking"] = True
@@ -620,7 +589,7 @@ class Selector:
                 f"correlation {r['correlation']:.3f})" for r in unsep)
         return e_new
 
-    def _replaced(self, cur: FitResult, fr: FitResult, new_sizes: list) -> list:
+    def _replaced(self, cur: FitResult, fr: FitResult, new_sizes: list, contained=()) -> list:
         """Earlier fitted physics that a candidate's fit ``fr`` drives to zero: every vehicle parameter of the
         current model (mass, stiffness, damping) that was distinguishable from zero (beyond 2 standard errors)
         and is no longer (within 2 standard errors of zero, or pushed onto a bound of its band that it was not
@@ -629,7 +598,10 @@ class Selector:
         and the backward check drops the stand-in, as it drops any effect that no longer earns its place.  Each comes with the largest correlation of its estimate
         with the candidate's sizes in the joint fit (Gauss–Newton covariance): the pair is *separable* only
         when that correlation is below ``RHO_SEPARABLE``.  (EMPS: quadratic damping took the place of the
-        viscous friction, 200 → 0.016 N·s/m, over a record whose rates make v and v|v| nearly collinear.)"""
+        viscous friction, 200 → 0.016 N·s/m, over a record whose rates make v and v|v| nearly collinear.)  A
+        linear parameter the candidate contains (``contained``: asymmetric damping and the linear damping of its
+        corners, :meth:`.candidates.EffectCandidate.augment`) is not replaced when it goes to zero: the effect is
+        then a damper on one side only, a generalisation, not a stand-in."""
         from .model import vehicle_params
 
         veh = set(vehicle_params(self.rec.kind))
@@ -637,8 +609,8 @@ class Selector:
         out = []
         for f in cur.spec.free:
             n = f.name
-            if n not in veh or n not in fr.P or n not in fr.params or n in new_sizes:
-                continue  # (not free in the fit: held by a candidate fitted in its place, EffectCandidate.augment)
+            if n not in veh or n not in fr.P or n in new_sizes or n in contained:
+                continue
             v0, s0 = float(cur.P[n]), float(cur.std.get(n, np.nan))
             if not abs(v0) > 2.0 * s0:
                 continue  # not established before: nothing to replace
@@ -716,7 +688,8 @@ class Selector:
         screened = {k: getattr(tr, k) for k in ("d_bic", "test_before", "test_after", "excess_before",
                                                  "excess_after", "z", "z_spectral")}
         chk = Trial(tr.name, tr.round, True)
-        self._judge(chk, fr, current, e_cur, floor_n, [s for c in cands for s in c.size_names])
+        self._judge(chk, fr, current, e_cur, floor_n, [s for c in cands for s in c.size_names],
+                    [p for c in cands for p in c.contains_free])
         for k in screened:
             setattr(tr, k, getattr(chk, k))
         tr.bic, tr.aic, tr.replaces, tr.screened = chk.bic, chk.aic, chk.replaces, screened
@@ -784,8 +757,7 @@ class Selector:
                 before = [f.name for f in spec_c.free]
                 spec_c, st = c.augment(spec_c, sc)
                 sizes += list(c.size_names)
-                if starts is not None:  # a pair: each start of the first with the second's own (by name: an
-                    # effect fitted in place of a linear parameter takes that parameter out of the vector)
+                if starts is not None:  # a pair: each start of the first with the second's own (by name)
                     names_c = [f.name for f in spec_c.free]
                     st = [[dict(zip(before, s0)).get(nm, v) for nm, v in zip(names_c, st[0])] for s0 in starts]
                 starts = st
@@ -825,7 +797,7 @@ class Selector:
                 if fr.cost < cur_screen.cost:
                     break
             tr.params = {k: v for k, v in fr.params.items() if k not in current.params}
-            self._judge(tr, fr, cur_screen, e_cur, floor_n, sizes)
+            self._judge(tr, fr, cur_screen, e_cur, floor_n, sizes, [p for c in cands for p in c.contains_free])
             tr.seconds = time.perf_counter() - t1
             msg = (f"  round {rnd} {name:<36} ΔBIC {tr.d_bic:12.1f}  test NRMSE {tr.test_before:.4f} → "
                    f"{tr.test_after:.4f}  z {tr.z:6.1f} / {tr.z_spectral:6.1f}  {tr.seconds:5.1f} s  {'KEPT' if tr.kept else tr.reason}")

@@ -113,10 +113,10 @@ class AsymmetricDamping(Effect):
     free_parameters = {"c_comp": FreeParameter("c", init=0.1, starts=(0.1, 0.0)),
                        "c_reb": FreeParameter("c", init=0.0, starts=(0.0, 0.1))}
     # with c_comp = c_reb = c this damper is the car's linear damping c: beside a free linear damping of its
-    # corners the search fits the total rates in its place (free_parameters.py: ``contains``) instead of
-    # adding two rates that duplicate it (blind battery asym_van_sweep: the duplicated fit read the damping
-    # "driven to zero" at correlation 1.000, and a sprung mass was named instead, 37× the floor)
-    contains = {"damping": ("c_comp", "c_reb")}
+    # corners the search fits c_reb − c_comp only (free_parameters.py: ``contains``) instead of two rates that
+    # duplicate the damping (blind battery asym_van_sweep: the duplicated fit read the damping "driven to zero"
+    # at correlation 1.000, and a sprung mass was named instead, 37× the floor)
+    contains = {"damping": ("c_reb", "c_comp")}
     signature = ("residual force vs travel rate has a kink at v=0 (different compression/rebound slopes) or a "
                  "map shape; mean travel drifts (jacking/packing down) under symmetric excitation")
 
