@@ -291,7 +291,7 @@ def test_a_screened_candidate_is_judged_again_on_the_whole_training_part():
     sel.z_min, sel.min_excess_drop, sel.min_rel_drop = 2.0, 0.10, 0.05
     sel.prob = types.SimpleNamespace(channels=["pos"])
     sel.log = lambda m: None
-    sel._replaced = lambda cur, fr, sizes: []
+    sel._replaced = lambda cur, fr, sizes, contained=(): []
     level = {"current": 0.0066, "good": 0.0056, "useless": 0.0066}
     sel._test_errors = lambda f: level[f.name] * base
     fits = {n: types.SimpleNamespace(name=n, bic=lambda b=b: b, aic=lambda b=b: b, params={"qd.c_v": 1e-7},
