@@ -189,7 +189,7 @@ def mujoco_confirm(D: Diagnosis, out: Path, max_seconds: float = 120.0) -> dict:
     ts = res.ts
     colmap = {"body_acc": "body_acc", "wheel_acc": "wheel_acc", "susp_travel": "travel", "body_pos": "body_z",
               "wheel_pos": "wheel_z", "tire_force": "tire_force", "pos": "body_z", "vel": "body_vel", "acc": "body_acc"}
-    fast = D.prob.simulate(D.final.spec, P)
+    fast = D.final.simulated(D.prob)
     cmp = {}
     m = min(len(ts), n)
     if rec.kind == "half_car":

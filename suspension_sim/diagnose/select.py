@@ -341,8 +341,8 @@ class Diagnosis:
     def sims(self, fitres: FitResult):
         """(train/whole-record simulation, test simulation) of a fit, with its fitted channel offsets."""
         o = fitres.offsets if fitres.offsets is not None else 0.0
-        s = self.prob.simulate(fitres.spec, fitres.P) + o
-        st = self.test_prob.simulate(fitres.spec, fitres.P) + o if self.test_prob is not None else s
+        s = fitres.simulated(self.prob) + o
+        st = fitres.simulated(self.test_prob) + o if self.test_prob is not None else s
         return s, st
 
     def nrmse(self, fitres: FitResult) -> dict:
@@ -472,7 +472,7 @@ class Selector:
         if len(chans) < 2:
             return []
         a, b = self.train
-        sim = self.prob.simulate(fr.spec, fr.P)[a:b] + (fr.offsets if fr.offsets is not None else 0.0)
+        sim = fr.simulated(self.prob)[a:b] + (fr.offsets if fr.offsets is not None else 0.0)
         U = [u[a:b] for u in self.rec.inputs.values()]
         resid = sim - self.prob.Y[a:b]
         est = incoherent_noise(resid, np.column_stack(U) if U else None)
@@ -523,7 +523,7 @@ class Selector:
 
     def _test_errors(self, fr: FitResult):
         tp = self.test_prob or self.prob
-        sim = tp.simulate(fr.spec, fr.P) + (fr.offsets if fr.offsets is not None else 0.0)
+        sim = fr.simulated(tp) + (fr.offsets if fr.offsets is not None else 0.0)
         a, b = self.test
         a = max(a, tp.skip)
         return (sim[a:b] - tp.Y[a:b]) / tp.scale
