@@ -73,6 +73,11 @@ def test_a_missing_stop_at_the_body_mode_is_not_mistaken_for_noise():
     assert incoherent_noise(R, d["road"], nper=256)[1][1] < NOISE_LIKE  # the former segment length
 
 
+def _fit():
+    """A stand-in fitted model: its simulation is the stand-in problem's."""
+    return types.SimpleNamespace(spec=None, P={}, offsets=None, simulated=lambda prob: prob.simulate(None, {}))
+
+
 def _selector(Y, resid, user=None):
     """A Selector with a stand-in problem whose fitted model leaves ``resid`` on every sample."""
     sel = Selector.__new__(Selector)
@@ -91,7 +96,7 @@ def test_recolour_raises_a_coloured_channel_floor_and_leaves_the_rest():
     noise = np.column_stack([_coloured(rng, s) for s in sds])
     Y = np.column_stack([np.sin(np.arange(N) / 50.0), np.cos(np.arange(N) / 70.0)]) + noise
     sel, chans = _selector(Y, -noise)
-    fr = types.SimpleNamespace(spec=None, P={}, offsets=None)
+    fr = _fit()
     floors = {c: {"value": noise_floor(Y[:, i], FS), "source": "estimated (PSD top band)"} for i, c in enumerate(chans)}
     for i, c in enumerate(chans):
         floors[c]["nrmse"] = floors[c]["value"] / sel.prob.scale[i]
@@ -116,7 +121,7 @@ def test_recolour_keeps_the_white_floor_when_the_residual_is_model_error():
     Y = err + white
     sel, chans = _selector(Y, -white + err)  # the model misses the force: residual = error (+ noise)
     sel.rec.inputs = {"road": u}
-    fr = types.SimpleNamespace(spec=None, P={}, offsets=None)
+    fr = _fit()
     floors = {c: {"value": float(np.std(white[:, i])), "source": "estimated (PSD top band)",
                   "nrmse": float(np.std(white[:, i]) / sel.prob.scale[i])} for i, c in enumerate(chans)}
     assert sel.recolour(floors, fr) == []
@@ -157,7 +162,7 @@ def test_recolour_leaves_a_white_channel_with_its_top_band_floor():
     sel, chans = _selector(Y, -noise)
     floors = {c: {"value": noise_floor(Y[:, i], FS), "source": "estimated (PSD top band)",
                   "nrmse": noise_floor(Y[:, i], FS) / sel.prob.scale[i]} for i, c in enumerate(chans)}
-    assert sel.recolour(floors, types.SimpleNamespace(spec=None, P={}, offsets=None)) == []
+    assert sel.recolour(floors, _fit()) == []
     assert all(abs(floors[c]["value"] / 0.03 - 1) < 0.1 for c in chans)
 
 

@@ -74,6 +74,13 @@ def test_noise_outside_the_predictable_bands_reads_the_noise_under_model_error()
     assert whole[0][0] > 2 * true[0] and whole[2][0] > 2 * true[2]  # what the whole band made of it
 
 
+def _fit():
+    """A stand-in fitted model: its simulation is the stand-in problem's."""
+    import types
+
+    return types.SimpleNamespace(spec=None, P={}, offsets=None, simulated=lambda prob: prob.simulate(None, {}))
+
+
 def test_a_floor_raised_on_a_worse_model_comes_back_down_on_a_better_one():
     """The floor is re-estimated on the best model's residual after each accepted step; a floor raised on an
     earlier residual (more model error leaked into its unpredictable part) follows the better model's, and
@@ -95,7 +102,7 @@ def test_a_floor_raised_on_a_worse_model_comes_back_down_on_a_better_one():
     sel.train, sel.user_floors = (0, n), {}
     floors = {c: {"value": 3 * s, "nrmse": 3 * s / sel.prob.scale[i], "source": "earlier", "record_floor": 0.2 * s}
               for i, (c, s) in enumerate(zip(chans, [0.03, 0.4]))}
-    sel.recolour(floors, types.SimpleNamespace(spec=None, P={}, offsets=None))
+    sel.recolour(floors, _fit())
     for c, s in zip(chans, [0.03, 0.4]):
         assert abs(floors[c]["value"] / s - 1) < 0.15, (c, floors[c])
 
