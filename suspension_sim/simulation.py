@@ -27,7 +27,8 @@ class Simulation(System):
                  log_channels: str = "all"):
         super().__init__(scenarios, source)
         # "metrics": the compiled loop may log only the channels the metrics read (batches without time
-        # series); "all": every channel (the Python loop always logs everything)
+        # series); a set of channel names: only those (the compiled loop); "all": every channel (the Python
+        # loop always logs everything)
         self.log_channels = log_channels
         # callables hook(logger, j, t) run after each logged step j (time t), e.g. the live 3D viewer
         # (suspension_sim.viewer.attach_live_viewer); logger.ch[name][car, j] holds the step's log channels

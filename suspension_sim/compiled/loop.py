@@ -789,8 +789,12 @@ def run_steps(sim, mode: str, progress=None, logger=None):
 
     def make_log():
         layout.add_rest(sim, act_names, reading_widths, ctrl_widths, eff_sigs)
-        if getattr(sim, "log_channels", "all") == "metrics":
-            layout.keep_only(metric_channels(P.suffixes))
+        keep = getattr(sim, "log_channels", "all")
+        if isinstance(keep, str):
+            if keep == "metrics":
+                layout.keep_only(metric_channels(P.suffixes))
+        else:  # a set of channel names (diagnose's engine logs only what its outputs are made of)
+            layout.keep_only(set(keep))
         # step-major (log step, car, channel): a log step writes one contiguous block for all cars, car after
         # car (car-major rows, one per car a buffer apart, cost a cache miss per car and log step; channel-major
         # a cache line per channel); the channels are (car, log step) views, which the metrics gather into

@@ -155,7 +155,8 @@ class Problem:
 
     def simulate_batch(self, spec: ModelSpec, Ps: list, b: int | None = None) -> np.ndarray:
         b = len(self.rec) if b is None else b
-        out = self.engine(spec).run(list(Ps), b, [(e.label, e.type, e.corners, e.fixed) for e in spec.effects])
+        out = self.engine(spec).run(list(Ps), b, [(e.label, e.type, e.corners, e.fixed) for e in spec.effects],
+                                    outputs=self.channels)
         return out[:, :, self.col]
 
     def fit_offsets(self, sim, a: int, b: int) -> np.ndarray:

@@ -452,31 +452,77 @@ class Engine:
         return hit
 
     # --------------------------------------------------------------------------------------------------
-    def run(self, psets: list[dict], n_samples: int | None = None, effects: list | None = None) -> np.ndarray:
+    def run(self, psets: list[dict], n_samples: int | None = None, effects: list | None = None,
+            outputs=None) -> np.ndarray:
         """Outputs (n_sets, n_samples, n_channels); a diverged set gives :data:`BIG` everywhere.  ``effects``:
-        the model's effect entries for these sets (default: the engine's own)."""
+        the model's effect entries for these sets (default: the engine's own).  ``outputs``: the channels the
+        caller reads (default: all); the others are not computed (NaN)."""
         n_samples = self.N if n_samples is None else int(n_samples)
         self._entries = [tuple(e) for e in effects] if effects is not None else None
         if self.kind == "damper":
             return self._run_damper(psets, n_samples)
         try:
-            return self._run(psets, n_samples)
+            return self._run(psets, n_samples, outputs)
         except SimulationDiverged:
             if len(psets) == 1:
                 return np.full((1, n_samples, len(self.channels)), BIG)
-            return np.concatenate([self.run([P], n_samples, effects) for P in psets], axis=0)
+            return np.concatenate([self.run([P], n_samples, effects, outputs) for P in psets], axis=0)
 
-    def _run(self, psets, n_samples):
+    def _sources(self, outputs) -> dict:
+        """{output channel: the log channels it is made of} for ``outputs`` (None: every output channel)."""
+        want = self.channels if outputs is None else [c for c in self.channels if c in set(outputs)]
+        if self.kind == "sdof":
+            return {c: [{"acc": "body_acc", "vel": "body_vel", "pos": "body_z"}[c]] for c in want}
+        joints = [j for j in self.vcls.body_joints if j in ("pitch", "roll")]
+        out = {}
+        for c in want:
+            for corner in self.corners:
+                s = corner.suffix
+                if c == f"body_acc{s}":
+                    out[c] = ["body_acc"] + [f"{j}_acc" for j in joints]
+                elif c == f"body_pos{s}":
+                    out[c] = ["body_z"] + joints
+                for o, lg in (("wheel_acc", "wheel_acc"), ("susp_travel", "travel"), ("wheel_pos", "wheel_z"),
+                              ("tire_force", "tire_force")):
+                    if c == f"{o}{s}":
+                        out[c] = [f"{lg}{s}"]
+            if c in ("pitch", "roll", "pitch_rate", "roll_rate", "pitch_acc", "roll_acc"):
+                out[c] = [c]
+        return out
+
+    def _log(self, sim, keep) -> dict:
+        """Run ``sim``; its log channels {name: (n_sets, log rows)}.  The compiled loop logs only the channels
+        in ``keep`` and nothing else is made of its log (a Simulation's run also makes every car's Result and
+        its metrics, 5-15 % of a diagnose run's time, and streams a log larger than its buffer through Parquet);
+        the Python loop (``SUSPENSION_SIM_COMPILED=0``) runs the whole Simulation."""
+        from ..build import n_log_samples
+        from ..compiled.loop import plan, run as run_compiled
+        from ..log import Logger
+        from ..loop import one_blas_thread
+
+        mode, sim.loop_reason = plan(sim)
+        sim.loop = mode or "python"
+        if mode is None:
+            res = sim.run()
+            src = res[0].__dict__.get("_src")
+            return src[1] if src is not None else {c: np.stack([r.ts[c].to_numpy() for r in res]) for c in res[0].ts}
+        sim.log_channels = set(keep)
+        logger = Logger(sim, n_log=n_log_samples(sim.n_steps, sim.log_every))  # held whole
+        with one_blas_thread():
+            run_compiled(sim, mode, None, logger)
+        return logger.ch
+
+    def _run(self, psets, n_samples, outputs=None):
         sim = self._sim(psets, n_samples)
         self._write_vehicle(sim, psets)
         self._components(sim, psets)
         self._static_state(sim)
         self._initial_state(sim, psets)
-        res = sim.run()
-        src = res[0].__dict__.get("_src")
-        ch = src[1] if src is not None else {c: np.stack([r.ts[c].to_numpy() for r in res]) for c in res[0].ts}
+        srcs = self._sources(outputs)
+        ch = self._log(sim, {"body_z"} | {lg for v in srcs.values() for lg in v})
         n = len(psets)
-        out = np.empty((n, n_samples, len(self.channels)))
+        out = np.empty((n, n_samples, len(self.channels))) if outputs is None else \
+            np.full((n, n_samples, len(self.channels)), np.nan)
         L = min(n_samples, ch["body_z"].shape[1])
 
         def g(name):
@@ -485,24 +531,27 @@ class Engine:
 
         if self.kind == "sdof":
             for j, (c, src_name) in enumerate((("acc", "body_acc"), ("vel", "body_vel"), ("pos", "body_z"))):
-                out[:, :L, j] = g(src_name)
+                if c in srcs:
+                    out[:, :L, j] = g(src_name)
         else:
             idx = {c: j for j, c in enumerate(self.channels)}
             for ci, corner in enumerate(self.corners):
                 s = corner.suffix
-                xs = np.array([self._corner_xy(Pd, ci)[0] for Pd in psets])[:, None]
-                ys = np.array([self._corner_xy(Pd, ci)[1] for Pd in psets])[:, None]
-                out[:, :L, idx[f"body_acc{s}"]] = g("body_acc") - xs * g("pitch_acc") + ys * g("roll_acc")
-                out[:, :L, idx[f"body_pos{s}"]] = g("body_z") - xs * g("pitch") + ys * g("roll")
-                out[:, :L, idx[f"wheel_acc{s}"]] = g(f"wheel_acc{s}")
-                out[:, :L, idx[f"susp_travel{s}"]] = g(f"travel{s}")
-                out[:, :L, idx[f"wheel_pos{s}"]] = g(f"wheel_z{s}")
-                out[:, :L, idx[f"tire_force{s}"]] = g(f"tire_force{s}")
-            for j in ("pitch", "roll"):
-                if j in idx:
+                if f"body_acc{s}" in srcs or f"body_pos{s}" in srcs:
+                    xy = [self._corner_xy(Pd, ci) for Pd in psets]
+                    xs = np.array([p[0] for p in xy])[:, None]
+                    ys = np.array([p[1] for p in xy])[:, None]
+                if f"body_acc{s}" in srcs:
+                    out[:, :L, idx[f"body_acc{s}"]] = g("body_acc") - xs * g("pitch_acc") + ys * g("roll_acc")
+                if f"body_pos{s}" in srcs:
+                    out[:, :L, idx[f"body_pos{s}"]] = g("body_z") - xs * g("pitch") + ys * g("roll")
+                for o, lg in (("wheel_acc", "wheel_acc"), ("susp_travel", "travel"), ("wheel_pos", "wheel_z"),
+                              ("tire_force", "tire_force")):
+                    if f"{o}{s}" in srcs:
+                        out[:, :L, idx[f"{o}{s}"]] = g(f"{lg}{s}")
+            for j in ("pitch", "roll", "pitch_rate", "roll_rate", "pitch_acc", "roll_acc"):
+                if j in idx and j in srcs:
                     out[:, :L, idx[j]] = g(j)
-                    out[:, :L, idx[f"{j}_rate"]] = g(f"{j}_rate")
-                    out[:, :L, idx[f"{j}_acc"]] = g(f"{j}_acc")
         if self._sag is not None:
             self._add_sag(out, psets)
         if L < n_samples:
