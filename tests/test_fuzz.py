@@ -6,7 +6,6 @@ run started.  (Issue: "no traceback at the edges"; limits in suspension_sim/limi
 from __future__ import annotations
 
 import os
-import time
 
 import numpy as np
 import pandas as pd
@@ -285,10 +284,9 @@ DATA = [
 ]
 
 
-def _check(res, names: list[str], text: str, t0: float):
+def _check(res, names: list[str], text: str):
     out = res.output if res.stderr is None else res.stderr
     err = (res.stderr or "").strip()
-    assert time.perf_counter() - t0 < 30, "took too long (a hang or a run started)"
     assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
     assert "Traceback" not in res.output and "Traceback" not in out
     assert res.exit_code == 2, (res.exit_code, res.output, err)
@@ -301,26 +299,44 @@ def _check(res, names: list[str], text: str, t0: float):
     return err
 
 
+class RunStarted(BaseException):
+    """Raised by a simulation run inside a fuzz case: a bad input must stop before a run starts.  A BaseException,
+    so no ``except Exception`` in the CLI can turn it into an error line.  (diagnose may simulate the nominal model
+    to judge a record's units: that is its check, not a run, so the data cases do not use this.)"""
+
+
+@pytest.fixture
+def no_run_starts(monkeypatch):
+    """Bad input stops before anything is stepped: a simulation's run raises (no wall-time bound: the machines are
+    shared, and a hang is what CI's own time limit catches)."""
+    from suspension_sim.simulation import Simulation
+
+    def refuse(*a, **k):
+        raise RunStarted("a run started on bad input")
+
+    monkeypatch.setattr(Simulation, "run", refuse)
+
+
 def _invoke(args, env=None):
     return CliRunner().invoke(app, [str(a) for a in args], env=env)
 
 
+@pytest.mark.usefixtures("no_run_starts")
 @pytest.mark.parametrize("case", SCENARIO_FILES, ids=[c[0] for c in SCENARIO_FILES])
 def test_bad_scenario_file(tmp_path, case):
     name, text, field, msg = case
     p = tmp_path / "scenario.yaml"
     (p.write_bytes if isinstance(text, bytes) else p.write_text)(text)
-    t0 = time.perf_counter()
-    err = _check(_invoke(["validate", p]), [str(p), f": {field}: " if field else ""], msg, t0)
+    err = _check(_invoke(["validate", p]), [str(p), f": {field}: " if field else ""], msg)
     assert err
 
 
+@pytest.mark.usefixtures("no_run_starts")
 @pytest.mark.parametrize("case", SET_VALUES, ids=[c[0] for c in SET_VALUES])
 def test_bad_set(tmp_path, case):
     name, sets, field, msg = case
     p = tmp_path / "scenario.yaml"
     p.write_text(yaml.safe_dump(BASE))
-    t0 = time.perf_counter()
     args = ["validate", p]
     for s in sets:
         args += ["--set", s]
@@ -328,18 +344,18 @@ def test_bad_set(tmp_path, case):
     if name == "set_tag":  # not a safe tag: taken as the text it is, and notes must be text: one line either way
         assert res.exit_code in (0, 2) and "Traceback" not in res.output
         return
-    _check(res, [str(p), f": {field}: " if field else ""], msg, t0)
+    _check(res, [str(p), f": {field}: " if field else ""], msg)
 
 
+@pytest.mark.usefixtures("no_run_starts")
 @pytest.mark.parametrize("case", SWEEPS, ids=[c[0] for c in SWEEPS])
 def test_bad_sweep(tmp_path, case):
     name, text, field, msg = case
     (tmp_path / "scenario.yaml").write_text(yaml.safe_dump(BASE))
     p = tmp_path / "sweep.yaml"
     p.write_text(text)
-    t0 = time.perf_counter()
     _check(_invoke(["batch", p, "--out", tmp_path / "out", "-q", "--workers", "1"]),
-           [str(p), f": {field}: " if field else ""], msg, t0)
+           [str(p), f": {field}: " if field else ""], msg)
     assert not (tmp_path / "out" / "summary.parquet").exists()
 
 
@@ -348,8 +364,7 @@ def test_bad_data_and_options(data_dir, tmp_path, case):
     name, files, opts, model, names, msg = case
     args = ["diagnose", *[data_dir / f for f in files], "--model", data_dir / model, "--out", tmp_path / "o",
             "--no-confirm", *opts]
-    t0 = time.perf_counter()
-    _check(_invoke(args), [names], msg, t0)
+    _check(_invoke(args), [names], msg)
     assert not (tmp_path / "o" / "report.json").exists()
 
 
@@ -371,11 +386,11 @@ def _big(t):
     return p
 
 
+@pytest.mark.usefixtures("no_run_starts")
 @pytest.mark.parametrize("case", OTHER, ids=[c[0] for c in OTHER])
 def test_other_bad_inputs(tmp_path, case):
     name, args, msg = case
-    t0 = time.perf_counter()
-    _check(_invoke(args(tmp_path)), [], msg, t0)
+    _check(_invoke(args(tmp_path)), [], msg)
 
 
 def test_corpus_size():
