@@ -689,7 +689,7 @@ class Selector:
                                                  "excess_after", "z", "z_spectral")}
         chk = Trial(tr.name, tr.round, True)
         self._judge(chk, fr, current, e_cur, floor_n, [s for c in cands for s in c.size_names],
-                    [p for c in cands for p in getattr(c, "contains_free", ())])
+                    _contained(cands))
         for k in screened:
             setattr(tr, k, getattr(chk, k))
         tr.bic, tr.aic, tr.replaces, tr.screened = chk.bic, chk.aic, chk.replaces, screened
@@ -797,7 +797,7 @@ class Selector:
                 if fr.cost < cur_screen.cost:
                     break
             tr.params = {k: v for k, v in fr.params.items() if k not in current.params}
-            self._judge(tr, fr, cur_screen, e_cur, floor_n, sizes, [p for c in cands for p in getattr(c, "contains_free", ())])
+            self._judge(tr, fr, cur_screen, e_cur, floor_n, sizes, _contained(cands))
             tr.seconds = time.perf_counter() - t1
             msg = (f"  round {rnd} {name:<36} ΔBIC {tr.d_bic:12.1f}  test NRMSE {tr.test_before:.4f} → "
                    f"{tr.test_after:.4f}  z {tr.z:6.1f} / {tr.z_spectral:6.1f}  {tr.seconds:5.1f} s  {'KEPT' if tr.kept else tr.reason}")
@@ -1086,3 +1086,9 @@ def init_sdof(rec: Record, spec: ModelSpec) -> None:
         free["input.offset"].init = float(sol[-1])
         free["input.offset"].scale = max(float(np.std(u)) * 0.01, 1e-12)
         spec.P["input.offset"] = float(sol[-1])
+
+
+def _contained(cands) -> list:
+    """The free linear parameters the candidates contain (:meth:`Selector._replaced`'s ``contained``; a test
+    double without ``contains_free`` contains none)."""
+    return [p for c in cands for p in getattr(c, "contains_free", ())]
