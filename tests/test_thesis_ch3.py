@@ -129,10 +129,14 @@ def test_frequency_plots_written(dirt, tmp_path, monkeypatch):
 def adaptation(request):
     def edit(raw):
         raw["sim"]["duration"] = 20.0
+        # baseline of test_fast_static_load_law_follows_with_any_gains: thetad_only without θ_d (the printed
+        # structure, P1 = (s + 20)², every gain zero, adaptation off)
+        raw["variants"]["zero_gains_printed"] = {"controller": {"params": {"p1": 20, "gamma": 0.0,
+                                                                           "theta0": [0.0] * 6}}}
 
     return run_variants(request.config.rootpath, "thesis_ch3_adaptation", edit,
                         variants=("passive", "adaptive", "nonadaptive", "known", "thetad_only", "blowoff_adaptive",
-                                  "blowoff_nonadaptive"))
+                                  "blowoff_nonadaptive", "zero_gains_printed"))
 
 
 def rms_follow(ts, ref, a, b):
@@ -186,10 +190,12 @@ def test_body_acceleration_from_wrong_gains_is_low_but_shows_no_pre_adaptation_e
 def test_fast_static_load_law_follows_with_any_gains(adaptation):
     """Why thesis_ch3_load_step's wrong start does not adapt: its fast θ_d law (γ_d = 20000, ours) is a high-gain
     integral action on the augmented error; with every gain zero and adaptation off the loop still follows
-    the reference to ≈ 0.1 mm (the printed structure with the same zero gains would be passive-like)."""
+    the reference to ≈ 0.1 mm.  Baseline that must fail: the same zero gains without θ_d (measured 4.5 mm, 50×;
+    passive 41 mm)."""
     ref = adaptation["adaptive"]["ctrl.ref_x"].to_numpy()
     assert rms_follow(adaptation["thetad_only"], ref, 5, 20) < 0.0003
     assert all(adaptation["thetad_only"][f"ctrl.theta.{j}"].abs().max() == 0 for j in range(5))
+    assert rms_follow(adaptation["zero_gains_printed"], ref, 5, 20) > 0.0003  # the baseline fails
 
 
 def test_adaptation_to_a_plant_that_differs_from_the_design(adaptation):
