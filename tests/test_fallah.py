@@ -120,6 +120,22 @@ def test_dlc_controlled_beats_passive(dlc):
     assert c.metrics["roll_rms"] < p.metrics["roll_rms"]
 
 
+def test_dlc_roll_acceleration_halved_total_lateral_acceleration_not(dlc):
+    """Fig. 8's "c.g. acceleration reduced by more than 50 %" (page: reproduced only on roll-derived components).
+    The roll acceleration meets the paper's 50 % bound (measured 0.31× passive over the 6.5 s run) and the passive
+    car (1.0×) fails it; the total lateral c.g. acceleration a_y + h·φ̈ does not (measured 1.01×, 2.61 → 2.63 m/s²:
+    the imposed a_y dominates), which pins the page's "not" for the total."""
+    from suspension_sim.maneuvers_dlc import DLCParams, DoubleLaneChange
+
+    p, c = dlc["passive"], dlc["fallah"]
+    for r, ok in ((c, True), (p, False)):
+        assert (r.metrics["roll_acc_rms"] < 0.5 * p.metrics["roll_acc_rms"]) == ok
+    mp = load_scenario(str(SCENARIOS / "fallah_dlc.yaml")).vehicle.maneuver.params
+    _, ay = DoubleLaneChange(DLCParams(**mp)).accel(p.ts.t.to_numpy())
+    lat = {k: _rms(ay + float(mp["cg_height"]) * r.ts.roll_acc.to_numpy()) for k, r in (("p", p), ("c", c))}
+    assert lat["c"] > 0.9 * lat["p"], lat
+
+
 def _moving_mean(x, n):
     c = np.concatenate([[0.0], np.cumsum(x)])
     k = np.arange(1, len(x) + 1)
