@@ -181,14 +181,9 @@ def bang_bang(ctx) -> ItemOutput:
 
     runs = {}
     for lab, (h, L, a) in BB_CASES.items():
-        v = ctx.variants("fallah_bump", [f"road.params.height={h}", f"road.params.length={L}",
-                                         f"controller.params.a={a}"])
-        for k, s in v.items():
+        for k, s in bb_scenarios(ctx, lab).items():
             if k == "passive" and a != 4.0:
                 continue
-            # the step-halving run halves the physics step only: the sampled near-sgn law chatters with an
-            # amplitude set by its 1 ms control period, which is part of the law as run (the page shows 0.5 ms)
-            s.sim.control_dt = s.sim.control_dt / ctx.step_factor
             runs[(lab, k)] = s
     res = ctx.run({f"{lab}|{k}": s for (lab, k), s in runs.items()}, label="fallah bang-bang")
     # the run-length check: the nominal runs again over twice the duration (a ratio of whole-run RMS values
@@ -325,6 +320,28 @@ def bang_bang(ctx) -> ItemOutput:
     return ItemOutput(claims, key=key, figure=fig, tables=[table, ens_table], notes=notes)
 
 
+def bb_scenarios(ctx, lab: str, only: list[str] | None = None) -> dict:
+    """The variants of ``fallah_bump`` for the bang-bang row ``lab`` of :data:`BB_CASES` at the context's step.
+    The step-halving run halves the physics step only: the sampled near-sgn law chatters with an amplitude set
+    by its 1 ms control period, which is part of the law as run (the page shows 0.5 ms)."""
+    h, L, a = BB_CASES[lab]
+    v = ctx.variants("fallah_bump", [f"road.params.height={h}", f"road.params.length={L}",
+                                     f"controller.params.a={a}"], only)
+    for s in v.values():
+        s.sim.control_dt = s.sim.control_dt / ctx.step_factor
+    return v
+
+
+def bb_realisation(base, j: int):
+    """Realisation ``j`` of a near-sgn row: ``base`` (realisation 0) with the bump height × (1 + j·
+    :data:`BB_PERTURBATION`) and the sim seed (the sensor noise) + j.  Also used by
+    ``benchmarks/fallah_near_sgn_ensemble.py``, which grows the ensemble of the 5 m ideal row."""
+    s = base.model_copy(deep=True)
+    s.road.params["height"] = base.road.params["height"] * (1.0 + BB_PERTURBATION * j)
+    s.sim.seed = base.sim.seed + j
+    return s
+
+
 def bb_realisations(ctx, runs, res) -> dict:
     """Heave-acceleration ratios to passive of the near-sgn rows over :data:`BB_REALISATIONS` realisations: the
     bump height × (1 + k·:data:`BB_PERTURBATION`) and the sim seed (the sensor noise) + k; k = 0 is the run
@@ -337,12 +354,7 @@ def bb_realisations(ctx, runs, res) -> dict:
         pa = rms(res[f"{lab.split(',')[0]}, a = 4|passive"].ts.body_acc)
         for k in ("fallah", "fallah_noisy"):
             base = runs[(lab, k)]
-            scs = {}
-            for j in range(1, BB_REALISATIONS):
-                s = base.model_copy(deep=True)
-                s.road.params["height"] = h * (1.0 + BB_PERTURBATION * j)
-                s.sim.seed = base.sim.seed + j
-                scs[f"{j}"] = s
+            scs = {f"{j}": bb_realisation(base, j) for j in range(1, BB_REALISATIONS)}
             r = ctx.run(scs, label=f"fallah bang-bang realisations ({lab}, {k})")
             x = [rms(res[f"{lab}|{k}"].ts.body_acc) / pa] + [rms(r[f"{j}"].ts.body_acc) / pa
                                                               for j in range(1, BB_REALISATIONS)]

@@ -1,0 +1,136 @@
+"""Step halving of Fallah's near-sgn (a = 1000 s/m) 5 m bump, ideal-sensor heave ratio, on a large ensemble.
+
+The key number ``heave_ratio[5 m bump, a = 1000,fallah]`` of ``suspension-sim reproduce fallah`` (item
+``bang_bang``) is a mean over realisations of a chaotic closed loop: realisation k runs the bump height
+× (1 + k·1e-6) and the sim seed + k (``reproductions/fallah.py``, :func:`bb_realisations`).  Its heave ratio is the
+whole-run RMS heave acceleration over the passive car's on the same bump, at the same step.  The item measures 128
+realisations per step, too few to decide issue 12's 2 % rule for this row (page:
+docs/reproductions/fallah_sorniotti_gruber.md, "Step halving").  This script runs realisations k0 … k0 + n − 1 of
+that very row, built by the item's own code path (``Context.variants`` of ``fallah_bump`` with the item's
+overrides, the control step held at 1 ms), at the scenario step (0.5 ms physics) and at half of it (0.25 ms),
+many cars per compiled-loop ensemble, and prints
+
+- each step's mean ± standard error;
+- the change of the mean on halving, with the unpaired standard error (the item's estimator, independent
+  means) and the paired one (realisation k at both steps: same bump height, same seed), with their
+  correlation;
+- the verdict of the item's rule (:func:`~suspension_sim.reproductions.framework.conv_status`: converged when
+  change + 1 s.e. < 2 %, undecided when the bound lies within 1 s.e.).
+
+The per-realisation ratios are saved (``--save``, .npz) and merged with earlier saves (``--merge``), so an
+ensemble can be grown in pieces.  Cost is printed as CPU seconds per realisation at each step.
+
+Run:  nice -n 10 python benchmarks/fallah_near_sgn_ensemble.py --n 512 [--k0 0] [--chunk 128]
+      [--save runs/fallah_ens_0.npz] [--merge runs/fallah_ens_*.npz]
+      python benchmarks/fallah_near_sgn_ensemble.py --merge runs/fallah_ens_*.npz --n 0   (report only)
+"""
+from __future__ import annotations
+
+import argparse
+import glob
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+LABEL = "5 m bump, a = 1000"
+
+
+def build(step_factor: float, k0: int, n: int):
+    """The passive reference and realisations k0 … k0+n−1 of the row, built by the item's own functions."""
+    from suspension_sim.reproductions.fallah import bb_realisation, bb_scenarios
+    from suspension_sim.reproductions.framework import Context
+
+    v = bb_scenarios(Context(step_factor), LABEL, only=["passive", "fallah"])
+    return v["passive"], [bb_realisation(v["fallah"], j) for j in range(k0, k0 + n)]
+
+
+def rms(x):
+    x = np.asarray(x, float)
+    return float(np.sqrt(np.mean(x * x)))
+
+
+def run_ratios(step_factor: float, k0: int, n: int, chunk: int) -> tuple[np.ndarray, float]:
+    from suspension_sim.simulation import Simulation
+
+    passive, scs = build(step_factor, k0, n)
+    pa = rms(Simulation([passive]).run()[0].ts.body_acc)
+    out = []
+    c0 = time.process_time()
+    for i in range(0, n, chunk):
+        res = Simulation(scs[i:i + chunk], log_channels={"body_acc"}).run()
+        if any(r.info.get("streamed_log") for r in res):  # r.ts would be the thinned preview, not the log
+            raise SystemExit(f"--chunk {chunk}: the ensemble's log was streamed (its time series would be a "
+                             "thinned preview); use a smaller chunk (128 fits)")
+        out += [rms(r.ts.body_acc) / pa for r in res]
+        print(f"  step ×{step_factor:g}: {i + len(res)}/{n} realisations, "
+              f"{(time.process_time() - c0) / (i + len(res)):.4f} CPU-s each", flush=True)
+    return np.array(out), (time.process_time() - c0) / max(n, 1)
+
+
+def report(ks: np.ndarray, x1: np.ndarray, x2: np.ndarray) -> None:
+    from suspension_sim.reproductions.framework import CONVERGENCE_TOL, conv_status
+
+    n = len(ks)
+    m1, m2 = x1.mean(), x2.mean()
+    s1, s2 = x1.std(ddof=1) / np.sqrt(n), x2.std(ddof=1) / np.sqrt(n)
+    change = abs(m2 - m1) / abs(m1)
+    se_unpaired = np.hypot(s1, s2) / abs(m1)
+    d = x2 - x1
+    se_paired = d.std(ddof=1) / np.sqrt(n) / abs(m1)
+    rho = np.corrcoef(x1, x2)[0, 1]
+    print(f"realisations {ks.min()}–{ks.max()} ({n} per step, each run at both steps)")
+    print(f"  0.5 ms physics:  mean {m1:.4f} ± {s1:.4f} (s.d. {x1.std(ddof=1) / m1:.1%}, {x1.min():.2f}–{x1.max():.2f})")
+    print(f"  0.25 ms physics: mean {m2:.4f} ± {s2:.4f} (s.d. {x2.std(ddof=1) / m2:.1%}, {x2.min():.2f}–{x2.max():.2f})")
+    print(f"  correlation of realisation k at the two steps: {rho:+.3f}")
+    print(f"  change on halving {100 * (m2 / m1 - 1):+.2f} %; s.e. unpaired {100 * se_unpaired:.2f} %, "
+          f"paired {100 * se_paired:.2f} %")
+    se = min(se_unpaired, se_paired)
+    st = conv_status(change, se)
+    print(f"  rule (change + 1 s.e. < {CONVERGENCE_TOL:.0%}), with the smaller s.e.: {st}; 1σ band "
+          f"{100 * (change - se):.2f}–{100 * (change + se):.2f} %; the bound is {(CONVERGENCE_TOL - change) / se:+.2f} s.e. "
+          "from the change")
+    print(f"  worse than passive: {np.sum(x1 > 1)} / {n} at 0.5 ms, {np.sum(x2 > 1)} / {n} at 0.25 ms")
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--n", type=int, default=512, help="realisations per step to run (0: report the merged saves)")
+    p.add_argument("--k0", type=int, default=0, help="first realisation index")
+    p.add_argument("--chunk", type=int, default=128, help="cars per compiled-loop ensemble")
+    p.add_argument("--save", help="save this run's per-realisation ratios (.npz)")
+    p.add_argument("--merge", nargs="*", default=[], help="earlier saves (.npz, globs) to merge into the report")
+    a = p.parse_args(argv)
+    parts = []
+    for pat in a.merge:
+        for f in sorted(glob.glob(pat)):
+            z = np.load(f)
+            parts.append((z["k"], z["x1"], z["x2"]))
+    if a.n > 0:
+        ks = np.arange(a.k0, a.k0 + a.n)
+        x1, c1 = run_ratios(1.0, a.k0, a.n, a.chunk)
+        x2, c2 = run_ratios(0.5, a.k0, a.n, a.chunk)
+        print(f"cost: {c1:.4f} CPU-s per realisation at 0.5 ms, {c2:.4f} at 0.25 ms")
+        if a.save:
+            Path(a.save).parent.mkdir(parents=True, exist_ok=True)
+            np.savez(a.save, k=ks, x1=x1, x2=x2)
+        parts.append((ks, x1, x2))
+    if not parts:
+        print("nothing to report: give --n > 0 or --merge files", file=sys.stderr)
+        return 2
+    ks = np.concatenate([q[0] for q in parts])
+    x1 = np.concatenate([q[1] for q in parts])
+    x2 = np.concatenate([q[2] for q in parts])
+    _, idx = np.unique(ks, return_index=True)  # a realisation saved twice counts once
+    if len(idx) < len(ks):
+        print(f"(dropped {len(ks) - len(idx)} duplicate realisations)")
+    report(ks[idx], x1[idx], x2[idx])
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
