@@ -28,6 +28,7 @@ OUT3 = ["body_acc", "wheel_acc", "susp_travel"]
 NAMES = {"coulomb": "coulomb_friction", "stops": "bump_stop", "asym": "asymmetric_damping",
          "cubic": "cubic_stiffness", "lag": "actuator_lag", "liftoff": "tire_liftoff",
          "mass": "parameter:sprung_mass", "quad": "quadratic_damping"}
+BEYOND = {"dahl", "maxwell"}  # truth laws outside the library: the right answer is nothing, or one stand-in
 
 
 # ------------------------------------------------------------------------------------------------------
@@ -42,7 +43,18 @@ def _road(rng, kind, duration, **kw):
                         L_range=kw.get("L", (0.4, 2.5)), gap_range=kw.get("gaps", (8.0, 25.0)), background=bg)
     if kind == "sweep":
         return bt.Sweep(kw.get("f0", 0.5), kw.get("f1", 20.0), duration, kw["amp"], kw.get("p", 0.5))
+    if kind == "steps":  # kerb steps up and down, on an optional ISO background
+        st = bt.Steps(rng, duration, kw["speed"], h_range=kw.get("h", (0.02, 0.04)))
+        return bt.Sum(st, bt.iso_road(rng, kw["bg"], kw["speed"])) if kw.get("bg") else st
+    if kind == "dwell":  # a sine dwell at the linear car's body resonance (times ``at``), on an ISO background
+        return "dwell", kw
     raise ValueError(kind)
+
+
+def _body_resonance(veh) -> float:
+    """The undamped body mode of the nominal corner (Hz): the spring in series with the tyre."""
+    k, kt = veh["spring_stiffness"], veh["tire_stiffness"]
+    return float(np.sqrt(k * kt / (k + kt) / veh["sprung_mass"]) / (2 * np.pi))
 
 
 def _force(rng, kind, duration, **kw):
@@ -121,15 +133,54 @@ RECORDS = {
                               noise=(0.02, "white")),
     "quad_van_iso": dict(veh="van", road=("iso", dict(cls="D", speed=25)), hidden={"quad": dict(rel=(0.3, 0.5))},
                          noise=(0.02, "white")),
+    # --- blind4: sample rates, sensor faults, excitations, the edge of detectability, laws beyond the library ---
+    # (``accept``: other named sets that are not wrong on the record: nothing, where the effect is at or below
+    # what the record can show, or one stand-in for a law the library does not hold)
+    "stops_sedan_200hz": dict(veh="sedan", road=("bumps", dict(speed=10, h=(0.03, 0.07), bg="A")),
+                              hidden={"stops": dict(q=(0.98, 0.99), sides="both")}, noise=(0.02, "white"),
+                              fs=200.0, duration=20.0),
+    "cubic_van_2khz": dict(veh="van", road=("iso", dict(cls="D", speed=20)), hidden={"cubic": dict(rel=(0.3, 0.5))},
+                           noise=(0.02, ["pink", "white", "brown"]), fs=2000.0),
+    "null_sedan_drift": dict(veh="sedan", road=("iso", dict(cls="C", speed=20)), hidden={},
+                             noise=(0.02, "white"), bias=(0.15, -0.3), drift=(0.2, 0.1)),
+    "null_van_travel_zero": dict(veh="van", road=("iso", dict(cls="C", speed=18)), hidden={},
+                                 noise=(0.02, "white"), travel_offset=0.003),
+    "cubic_city_clip_quant": dict(veh="city", road=("iso", dict(cls="D", speed=15)),
+                                  hidden={"cubic": dict(rel=(0.3, 0.5))}, noise=(0.02, "white"),
+                                  clip={"body_acc": 0.99}, quant={"susp_travel": 0.0005}),
+    "lag_sedan_jitter_drops": dict(veh="sedan", road=("iso", dict(cls="B", speed=20)),
+                                   force=("random", dict(rms=700.0)), hidden={"lag": dict(tau=(0.02, 0.04))},
+                                   noise=(0.02, "white"), jitter=0.05, drops=6, diag=dict(resample=True)),
+    "quad_sports_dwell": dict(veh="sports", road=("dwell", dict(amp=0.012, at=1.0, bg="A", speed=15)),
+                              hidden={"quad": dict(rel=(0.3, 0.5))}, noise=(0.02, "white"),
+                              accept=[set()]),
+    "asym_suv_steps": dict(veh="suv", road=("steps", dict(speed=10, bg="A")), hidden={"asym": dict(ratio=(2.0, 3.0))},
+                           noise=(0.02, "pink")),
+    "cubic_sedan_faint": dict(veh="sedan", road=("iso", dict(cls="C", speed=20)),
+                              hidden={"cubic": dict(rel=(0.04, 0.06))}, noise=(0.02, "white"), accept=[set()]),
+    "coulomb_sedan_trace": dict(veh="sedan", road=("iso", dict(cls="C", speed=18)),
+                                hidden={"coulomb": dict(rel=(0.004, 0.008))}, noise=(0.02, "white"),
+                                accept=[set()]),
+    "dahl_sedan_iso": dict(veh="sedan", road=("iso", dict(cls="C", speed=18)),
+                           hidden={"dahl": dict(rel=(0.2, 0.3), x_y=(0.002, 0.004))}, noise=(0.02, "white"),
+                           accept=[{"hysteresis"}, {"coulomb_friction"}]),
+    "maxwell_van_iso": dict(veh="van", road=("iso", dict(cls="D", speed=20)),
+                            hidden={"maxwell": dict(corner=(6.0, 9.0))}, noise=(0.02, "white"), accept="one"),
 }
 
 
-def build(name: str, seed: int = 0, duration: float = 8.0, fs: float = 1000.0):
+def build(name: str, seed: int = 0, duration: float | None = None, fs: float | None = None):
     """One record: (clean+noisy data dict, model dict, hidden set, truth values)."""
     spec = RECORDS[name]
+    duration = duration or spec.get("duration", 8.0)
+    fs = fs or spec.get("fs", 1000.0)
     rng = np.random.default_rng([seed, sum(map(ord, name))])
     veh = dict(bt.VEHICLES[spec["veh"]])
     road = _road(rng, spec["road"][0], duration, **spec["road"][1])
+    if isinstance(road, tuple):  # a sine dwell at the body resonance
+        kw = road[1]
+        f_b = kw.get("at", 1.0) * _body_resonance(veh)
+        road = bt.Sum(bt.SineSum([kw["amp"]], [2 * np.pi * f_b], [0.0], fade=2.0), bt.iso_road(rng, kw["bg"], kw["speed"]))
     fk, fkw = spec.get("force", (None, {}))
     force = _force(rng, fk, duration, **fkw)
     hid_spec = spec["hidden"]
@@ -179,6 +230,14 @@ def build(name: str, seed: int = 0, duration: float = 8.0, fs: float = 1000.0):
             truth["sprung_mass"] = m
         elif key == "liftoff":
             hidden[key] = True
+        elif key == "dahl":  # a Dahl friction element: level F_c relative to the damper's force, x_y = F_c/σ
+            F = u(p["rel"]) * veh["damping"] * float(np.std(v))
+            hidden[key] = dict(force=F, x_y=u(p["x_y"]))
+            truth.update({"dahl.force": F, "dahl.x_y": hidden[key]["x_y"]})
+        elif key == "maxwell":  # the damper on a bushing: its force fades above k_b/(2π·c)
+            kb = 2 * np.pi * u(p["corner"]) * veh["damping"]
+            hidden[key] = dict(k_b=kb)
+            truth["maxwell.k_b"] = kb
     if "liftoff" in hid_spec:  # scale the road until the wheel leaves it on the wanted share of samples
         want = u(hid_spec["liftoff"]["share"])
         Ft = lin["tire_force_total"]
@@ -189,7 +248,14 @@ def build(name: str, seed: int = 0, duration: float = 8.0, fs: float = 1000.0):
             scale *= 1.1
         road = _Scaled(road, scale)
         truth["road_scale"] = scale
-    d = bt.simulate(veh, hidden, road, force, duration, fs)
+    times = None
+    if spec.get("jitter"):  # the samples were taken at jittered instants and stamped at the nominal ones
+        n0 = int(round(duration * fs))
+        times = np.arange(n0) / fs + spec["jitter"] / fs * np.clip(rng.standard_normal(n0), -3, 3)
+        times[0] = 0.0
+    d = bt.simulate(veh, hidden, road, force, duration, fs, times=times)
+    if times is not None:
+        d["time"] = np.arange(len(times)) / fs
     level, colour = spec["noise"]
     n = len(d["time"])
     colours = colour if isinstance(colour, (list, tuple)) else [colour] * 3
@@ -200,13 +266,31 @@ def build(name: str, seed: int = 0, duration: float = 8.0, fs: float = 1000.0):
     meas["body_acc"] += b_body
     meas["wheel_acc"] += b_wheel
     meas["susp_travel"] += spec.get("travel_offset", 0.0)
+    if spec.get("drift"):  # accelerometer drift: a ramp plus a slow wander, each of that share of the std
+        a_ramp, a_wander = spec["drift"]
+        tt = d["time"] / d["time"][-1]
+        sd = float(np.std(d["body_acc"]))
+        meas["body_acc"] += sd * (a_ramp * (tt - 0.5) + a_wander * np.sin(2 * np.pi * 0.07 * d["time"]
+                                                                             + rng.uniform(0, 2 * np.pi)))
+    for ch, q in (spec.get("clip") or {}).items():  # a sensor that saturates at the q-quantile of |signal|
+        lim = float(np.quantile(np.abs(meas[ch]), q))
+        meas[ch] = np.clip(meas[ch], -lim, lim)
+    for ch, q in (spec.get("quant") or {}).items():  # a sensor quantised to steps of q
+        meas[ch] = q * np.round(meas[ch] / q)
     params = dict(veh)
     params["damping"] = {"value": veh["damping"], "free": True}
     model = {"model": "quarter_car", "params": params, "position_zero": spec.get("zero", "nominal")}
-    expect = {NAMES[k] for k in hid_spec}
+    expect = {NAMES[k] for k in hid_spec if k not in BEYOND}
     info = {k: d[k] for k in ("stick_share", "lift_share", "stop_share") if k in d}
     data = {"time": d["time"], "road": d["road"], **({"force": d["force"]} if fk else {}), **meas}
-    return data, {c: d[c] for c in OUT3}, model, expect, truth, info, hidden
+    clean = {c: d[c] for c in OUT3}
+    if spec.get("drops"):  # rows lost by the logger: the time column shows the gaps
+        keep = np.ones(n, bool)
+        keep[rng.choice(np.arange(n // 10, n - n // 10), spec["drops"], replace=False)] = False
+        data = {k: v[keep] for k, v in data.items()}
+        clean = {k: v[keep] for k, v in clean.items()}
+        info["dropped_rows"] = int((~keep).sum())
+    return data, clean, model, expect, truth, info, hidden
 
 
 class _Scaled:
@@ -235,7 +319,9 @@ def write(name, folder: Path, seed=0):
     pd.DataFrame(data).to_csv(csv, index=False, float_format="%.9g")
     yml = folder / f"{name}.model.yaml"
     yml.write_text(yaml.safe_dump(model, sort_keys=False))
-    return csv, yml, dict(data=data, clean=clean, expect=expect, truth=truth, info=info, hidden=hidden)
+    acc = RECORDS[name].get("accept", [])
+    return csv, yml, dict(data=data, clean=clean, expect=expect, truth=truth, info=info, hidden=hidden,
+                          accept=acc if acc == "one" else [set(a) for a in acc])
 
 
 def fitted_values(rep) -> dict:
@@ -268,7 +354,13 @@ def score(name, rep, sc) -> dict:
     true_floor = {c: float(np.std(sc["data"][c][a_:b_] - sc["clean"][c][a_:b_]
                                   - np.mean(sc["data"][c][a_:b_] - sc["clean"][c][a_:b_]))) / std[c] for c in chans}
     agg = lambda d: float(np.sqrt(np.mean(np.square(list(d.values())))))  # noqa: E731
-    return {"record": name, "hidden": sorted(exp), "named": sorted(named), "exact": named == exp,
+    acc = sc.get("accept", [])
+    # "ok": exact, or a set the record allows (nothing where the effect is at the edge of what it shows; one
+    # stand-in, with the remainder stated as unexplained, for a law beyond the library)
+    ok = named == exp or (named in acc if acc != "one" else
+                          (not named or (len(named) == 1 and bool(rep.get("unexplained_x_floor")))))
+    return {"record": name, "hidden": sorted(exp) + sorted(k for k in sc["hidden"] if k in BEYOND),
+            "named": sorted(named), "exact": named == exp, "ok": ok,
             "false": sorted(named - exp), "missed": sorted(exp - named),
             "before": agg(rep["nrmse"]["before"]["test"]), "after": agg(rep["nrmse"]["after"]["test"]),
             "floor_true": agg(true_floor), "floor_est": agg({c: rep["noise_floor"][c]["nrmse"] for c in chans}),
@@ -281,7 +373,8 @@ def run_one(name, folder: Path, seed=0, log=None):
 
     csv, yml, sc = write(name, folder, seed)
     t0 = time.perf_counter()
-    rep = diagnose(str(csv), str(yml), str(folder / f"{name}.out"), confirm=False, plots=False, log=log)
+    rep = diagnose(str(csv), str(yml), str(folder / f"{name}.out"), confirm=False, plots=False, log=log,
+                   **RECORDS[name].get("diag", {}))
     r = score(name, rep, sc)
     r["wall"] = time.perf_counter() - t0
     return r
@@ -313,23 +406,24 @@ def main():
         return
     folder = Path(a.out or tempfile.mkdtemp(prefix="blind_battery_"))
     print(f"records in {folder}")
-    print("| record | hidden | named | exact | false | held-out before → after | floor true / est | "
+    print("| record | hidden | named | exact (ok) | false | held-out before → after | floor true / est | "
           "truth → fitted | time |")
     print("|---|---|---|---|---|---|---|---|---|")
-    n_exact = 0
+    n_exact = n_ok = 0
     for n in names:
         r = run_one(n, folder, a.seed)
         n_exact += r["exact"]
+        n_ok += r["ok"]
         ux = f" (unexplained {r['unexplained']:.1f}×)" if r["unexplained"] else ""
         print(f"| {n} | {', '.join(r['hidden']) or '—'} | {', '.join(r['named']) or '—'} | "
-              f"{'yes' if r['exact'] else '**no**'} | {', '.join(r['false']) or '—'} | "
+              f"{'yes' if r['exact'] else ('no (ok)' if r['ok'] else '**no**')} | {', '.join(r['false']) or '—'} | "
               f"{r['before']:.4f} → {r['after']:.4f}{ux} | {r['floor_true']:.4f} / {r['floor_est']:.4f} | "
               f"{_fmt_vals(r)} | {r['wall']:.0f} s |", flush=True)
         if a.json:
             with open(a.json, "a") as fh:
                 fh.write(json.dumps({k: (v if not isinstance(v, set) else sorted(v)) for k, v in r.items()},
                                     default=float) + "\n")
-    print(f"exact: {n_exact} / {len(names)}")
+    print(f"exact: {n_exact} / {len(names)}; exact or allowed: {n_ok} / {len(names)}")
 
 
 if __name__ == "__main__":

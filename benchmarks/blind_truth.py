@@ -10,10 +10,15 @@ data-file format.  Integrated by scipy ``solve_ivp`` (DOP853, rtol 1e-9) with
   (progressive) spring term about the nominal ride height, end stops at fixed geometric gaps from the
   nominal ride height (per side, optionally damped), Coulomb friction as a sharp tanh (v_eps 1 mm/s by default; an exact
   stick-slip version by events was tried and was too slow to integrate here), an actuator force through a first-order lag,
-  and a unilateral tyre (the total tyre force never pulls: lift-off);
+  and a unilateral tyre (the total tyre force never pulls: lift-off); two laws *beyond* the diagnose library:
+  a Dahl friction element (dF/dt = σ·v·(1 − F/F_c·sgn v): a hysteretic damper with a pre-sliding stiffness
+  σ) and a Maxwell damper (the damper in series with a compliant top-mount bushing, dF/dt = k_b·(v − F/c):
+  damping that fades with frequency);
 - inputs: an ISO 8608 random road of a given class at a speed (a sum of sines in spatial frequency with
-  the class's displacement PSD Gd(n0)·(n/n0)^-2), discrete bumps and potholes, a swept-sine road (a
-  four-post rig) and a measured actuator force command (random or swept sine);
+  the class's displacement PSD Gd(n0)·(n/n0)^-2), discrete bumps and potholes, kerb steps (level changes
+  that stay), a swept-sine road (a four-post rig), a sine dwell, sums of these, and a measured actuator force
+  command (random or swept sine);
+- sampling: any rate, and sample instants that jitter about their nominal stamps (``times``);
 - sensors: white, pink (1/f) or brown (1/f²) noise, static biases on the accelerometers, and a travel
   sensor zeroed at the nominal ride height (or anywhere: a static offset).
 
@@ -142,6 +147,59 @@ class Bumps:
         return self.both(t)[0]
 
 
+class Steps:
+    """Kerb steps: the road level changes by h (m) over a length L (m) at positions x0 and stays there
+    (h·sin²(π/2·(x − x0)/L) over the ramp: C¹), driven at ``speed``; ups and downs alternate about zero."""
+
+    def __init__(self, rng, duration, speed, h_range=(0.02, 0.04), L_range=(0.15, 0.4), gap_range=(6.0, 15.0)):
+        self.speed = speed
+        xs, hs, Ls = [], [], []
+        x, level = speed * 0.8, 0.0
+        while x < speed * (duration - 0.3):
+            L = rng.uniform(*L_range)
+            h = rng.uniform(*h_range) * (-1.0 if level > 0 else 1.0)
+            level += h
+            xs.append(x), hs.append(h), Ls.append(L)
+            x += L + rng.uniform(*gap_range)
+        self.x0, self.h, self.L = np.array(xs), np.array(hs), np.array(Ls)
+
+    def __call__(self, t):
+        r, rd = self.both(np.array([t]))
+        return float(r[0]), float(rd[0])
+
+    def both(self, t):
+        t = np.asarray(t, float)
+        x = self.speed * t
+        r, rd = np.zeros_like(t), np.zeros_like(t)
+        for x0, h, L in zip(self.x0, self.h, self.L):
+            u = np.clip((x - x0) / L, 0.0, 1.0)
+            r += h * np.sin(0.5 * np.pi * u) ** 2
+            m = (x > x0) & (x < x0 + L)
+            rd[m] += h * np.sin(np.pi * u[m]) * 0.5 * np.pi / L * self.speed
+        return r, rd
+
+    def sample(self, t):
+        return self.both(t)[0]
+
+
+class Sum:
+    """The sum of several inputs."""
+
+    def __init__(self, *parts):
+        self.parts = parts
+
+    def __call__(self, t):
+        v = [p(t) for p in self.parts]
+        return sum(a for a, _ in v), sum(b for _, b in v)
+
+    def both(self, t):
+        v = [p.both(t) for p in self.parts]
+        return sum(a for a, _ in v), sum(b for _, b in v)
+
+    def sample(self, t):
+        return self.both(t)[0]
+
+
 class Sweep:
     """A swept sine from f0 to f1 Hz over the record (log sweep), amplitude a·(f0/f)^p (constant
     displacement for p = 0; a shaker rig keeps velocity or acceleration bounded with p > 0)."""
@@ -210,7 +268,7 @@ class Tabulated:
 # ------------------------------------------------------------------------------------------------------
 # the car
 # ------------------------------------------------------------------------------------------------------
-def simulate(vehicle: dict, hidden: dict, road, force, duration: float, fs: float):
+def simulate(vehicle: dict, hidden: dict, road, force, duration: float, fs: float, times=None):
     """Integrate the car; returns dict of clean signals sampled at fs (time, road, force, body_acc, wheel_acc,
     susp_travel, tire_force total) and bookkeeping (stick share, lift share, stop share).
 
@@ -218,10 +276,12 @@ def simulate(vehicle: dict, hidden: dict, road, force, duration: float, fs: floa
     ``mass`` (true sprung mass, kg), ``asym`` {c_comp, c_reb} (total damping rates replacing ``damping``),
     ``cubic`` {k3} (N/m³ about the nominal ride height), ``stops`` {gap_c, gap_e (None = no stop), k, c},
     ``coulomb`` {force, v_eps (default 1 mm/s)}, ``lag`` {tau} (s), ``liftoff`` (bool),
-    ``quad`` {c_v} (N·s²/m²)."""
+    ``quad`` {c_v} (N·s²/m²), ``dahl`` {force, x_y} (a Dahl friction element of level F_c and pre-sliding
+    displacement x_y = F_c/σ, beside the linear damper), ``maxwell`` {k_b} (the linear damper in series with a
+    bushing of stiffness k_b).  ``times``: the instants actually sampled (default k/fs; jittered sampling)."""
     road_src, force_src = road, force
     road, force = Tabulated(road, duration), Tabulated(force, duration)
-    t_eval = np.arange(int(round(duration * fs))) / fs
+    t_eval = np.arange(int(round(duration * fs))) / fs if times is None else np.asarray(times, float)
     V = vehicle
     ms_nom, mu = V["sprung_mass"], V["unsprung_mass"]
     ms = hidden.get("mass", ms_nom)
@@ -238,14 +298,20 @@ def simulate(vehicle: dict, hidden: dict, road, force, duration: float, fs: floa
     veps = cf.get("v_eps", 0.001) if cf else 1.0
     tau = hidden.get("lag", {}).get("tau", 0.0)
     lift = bool(hidden.get("liftoff"))
+    dahl, mx = hidden.get("dahl"), hidden.get("maxwell")
 
-    def susp(s, v, Fa):
-        """Suspension force on the body without friction (N, + up), incl. the preload."""
-        if asym:
+    def susp(s, v, Fa, z=0.0):
+        """Suspension force on the body without friction (N, + up), incl. the preload; ``z`` the internal
+        element's force (Dahl friction or the Maxwell damper's)."""
+        if mx:
+            fd = z
+        elif asym:
             fd = (asym["c_reb"] if v > 0 else asym["c_comp"]) * v
         else:
             fd = c * v
         F = F_s0 - k * s - fd - k3 * s ** 3 - cq * v * abs(v) + Fa
+        if dahl:
+            F -= z
         if stops:
             g_c, g_e, ks, cs = stops["gap_c"], stops.get("gap_e"), stops["k"], stops.get("c", 0.0)
             if g_c is not None and s < -g_c:
@@ -263,10 +329,18 @@ def simulate(vehicle: dict, hidden: dict, road, force, duration: float, fs: floa
         return force(t)[0]
 
     def parts(t, x):
-        zs, vs, zu, vu, Fa = x
+        zs, vs, zu, vu, Fa, z = x
         s, v = zs - zu, vs - vu
         Fact = Fa if tau > 0 else u_cmd(t)
-        return susp(s, v, Fact), tyre(zu, vu, t), s, v
+        return susp(s, v, Fact, z), tyre(zu, vu, t), s, v
+
+    def dz(x):
+        v = x[1] - x[3]
+        if dahl:
+            return dahl["force"] / dahl["x_y"] * v * (1.0 - x[5] / dahl["force"] * math.copysign(1.0, v))
+        if mx:
+            return mx["k_b"] * (v - x[5] / c)
+        return 0.0
 
     def accel(Fsus, Ff, Ft):
         return (Fsus + Ff) / ms - GRAV, (Ft - Fsus - Ff) / mu - GRAV
@@ -289,13 +363,13 @@ def simulate(vehicle: dict, hidden: dict, road, force, duration: float, fs: floa
             if mode == 0:
                 a_u = a_s  # exactly locked
             dFa = (u_cmd(t) - x[4]) / tau if tau > 0 else 0.0
-            return [x[1], a_s, x[3], a_u, dFa]
+            return [x[1], a_s, x[3], a_u, dFa, dz(x)]
         return rhs
 
-    x0 = [0.0, 0.0, 0.0, 0.0, 0.0]
+    x0 = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
     # start at the true static equilibrium (a heavier car has settled before the record starts)
     if ms != ms_nom:
-        x0 = _static_equilibrium(lambda s: susp(s, 0.0, 0.0), ms, mu, kt, F_t0)
+        x0 = _static_equilibrium(lambda s: susp(s, 0.0, 0.0), ms, mu, kt, F_t0) + [0.0]
     opts = dict(method="DOP853", rtol=1e-9, atol=1e-12, max_step=2.0 / fs)
     sol = solve_ivp(make_rhs(None), (0, t_eval[-1]), x0, t_eval=t_eval, **opts)
     if sol.status != 0:

@@ -76,6 +76,25 @@ def test_bad_data_repairs(tmp_path):
     assert np.ptp(np.diff(rec.t)) < 1e-12
 
 
+def test_resample_of_a_record_with_lost_rows_keeps_the_measured_samples(tmp_path):
+    """A 1 kHz record with six rows lost by the logger (the time column shows the gaps): ``resample`` puts it back
+    on its own 1 ms step, every measured sample unchanged and only the six filled.  Before, it went onto the
+    mean step (the span over six rows fewer), where every grid point falls between two samples: the linear
+    interpolation averaged white noise down to about 0.8 of itself (blind battery lag_sedan_jitter_drops:
+    held-out error 0.0166 against a true noise of 0.0199) and moved every sample's time."""
+    rng = np.random.default_rng(0)
+    n = 4000
+    t = np.arange(n) / 1000.0
+    df = pd.DataFrame({"time": t, "road": 0.01 * np.sin(3 * t), "body_acc": rng.standard_normal(n)})
+    lost = [500, 1200, 1201, 2222, 3000, 3500]
+    rec = load_record(_csv(tmp_path, df.drop(index=lost)), "quarter_car", resample=True)
+    assert len(rec) == n and rec.dt == pytest.approx(1e-3, rel=1e-9)
+    kept = np.setdiff1d(np.arange(n), lost)
+    assert np.allclose(rec.outputs["body_acc"][kept], df.body_acc.values[kept], atol=1e-12)
+    assert np.std(rec.outputs["body_acc"]) == pytest.approx(1.0, abs=0.03)
+    assert any("6 missing rows" in x for x in rec.notes), rec.notes
+
+
 def test_map_scale_unknown_and_mismatched(tmp_path):
     df = pd.DataFrame({"zr_mm": 10 * np.sin(np.arange(100) / 10), "acc": np.ones(100)})
     p = _csv(tmp_path, df)
