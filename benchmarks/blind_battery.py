@@ -158,6 +158,8 @@ RECORDS = {
                            noise=(0.02, "pink")),
     "cubic_sedan_faint": dict(veh="sedan", road=("iso", dict(cls="C", speed=20)),
                               hidden={"cubic": dict(rel=(0.04, 0.06))}, noise=(0.02, "white"), accept=[set()]),
+    "cubic_sedan_edge": dict(veh="sedan", road=("iso", dict(cls="C", speed=20)),
+                             hidden={"cubic": dict(rel=(0.022, 0.028))}, noise=(0.02, "white"), accept=[set()]),
     "coulomb_sedan_trace": dict(veh="sedan", road=("iso", dict(cls="C", speed=18)),
                                 hidden={"coulomb": dict(rel=(0.004, 0.008))}, noise=(0.02, "white"),
                                 accept=[set()]),

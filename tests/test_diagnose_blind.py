@@ -310,7 +310,7 @@ def test_blind_battery_sensor_faults_and_a_law_beyond_the_library(name, tmp_path
     signal's std; the right answer is no effect, the drift left as "unexplained"), a Dahl friction element (a
     hysteretic damper the library does not hold: at most its closest library effect, with the held-out error
     near the noise), and an actuator lag recorded with sample-time jitter (5 % of the step, stamped nominal) and
-    six rows lost by the logger (read with ``resample``).  1–2 min each on a loaded 2-core machine: slow."""
+    six rows lost by the logger (read with ``resample``).  The three: 5 min 10 s at load ~8: slow."""
     import sys
     from pathlib import Path
 
@@ -326,4 +326,7 @@ def test_blind_battery_sensor_faults_and_a_law_beyond_the_library(name, tmp_path
         assert r["after"] < 1.3 * r["floor_true"], (r["after"], r["floor_true"])
     else:
         assert r["named"] == ["actuator_lag"], r["named"]
+        # judged on the samples as measured: not below the noise (resampled onto the mean step, the
+        # interpolation averaged the noise down and the final error read 0.0166 against a true 0.0199)
+        assert 0.9 * r["floor_true"] < r["after"] < 1.3 * r["floor_true"], (r["after"], r["floor_true"])
         assert abs(r["fitted"]["actuator.time_constant"] / r["truth"]["actuator.time_constant"] - 1) < 0.05
