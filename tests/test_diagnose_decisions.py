@@ -127,6 +127,36 @@ def test_recolour_keeps_the_white_floor_when_the_residual_is_model_error():
     assert sel.recolour(floors, fr) == []
 
 
+def test_a_floor_raised_on_an_earlier_residual_comes_down_to_a_later_residual_that_undercuts_it():
+    """Noise is in every model's residual, so a floor above a later residual's RMS was model error taken for
+    noise.  The full car with friction at one corner: its wheel's nominal residual (12× the noise, weakly seen
+    in the other channels) read as coloured noise and raised that floor to itself; the friction fitted, the
+    residual held the law's error (predictable, so "model error: the floor stays") and the raise stayed at
+    12× the noise.  Here the residual is a predictable error 3× the noise: a floor raised to 10× the noise
+    comes down to the residual's RMS, never below the record's floor; a floor at the record's own stays."""
+    rng = np.random.default_rng(4)
+    u = _road(rng)
+    f = 100.0 * np.tanh(np.gradient(u) / 1e-4)
+    err = np.column_stack([lfilter([1e-3], [1, -1.9, 0.905], f), lfilter([1e-6], [1, -1.95, 0.952], f)])
+    white = rng.standard_normal(err.shape) * np.std(err, axis=0) / 3.0
+    Y = np.column_stack([np.sin(np.arange(N) / 50.0), np.cos(np.arange(N) / 70.0)]) + white
+    sel, chans = _selector(Y, err - white)  # residual = the law's error + the noise
+    sel.rec.inputs = {"road": u}
+    assert all(p > NOISE_LIKE for _, p in incoherent_noise(err - white, u))  # model error, not noise
+    sw = np.std(white, axis=0)
+    rms = np.sqrt(np.mean((err - white) ** 2, axis=0))
+    floors = {c: {"value": (10.0 if i == 0 else 1.0) * sw[i], "record_floor": sw[i], "source": "earlier",
+                  "nrmse": (10.0 if i == 0 else 1.0) * sw[i] / sel.prob.scale[i]} for i, c in enumerate(chans)}
+    assert rms[0] < floors["c0"]["value"]  # the raise is above what this model leaves
+    assert sel.recolour(floors, _fit()) == []
+    assert floors["c0"]["value"] == pytest.approx(rms[0]) and 2.5 * sw[0] < floors["c0"]["value"] < 4 * sw[0]
+    assert floors["c1"]["value"] == sw[1]  # not raised: stays at the record's floor
+    # the record's floor is the lowest it comes down to
+    floors["c0"] = dict(floors["c0"], value=10.0 * sw[0], record_floor=5.0 * sw[0])
+    sel.recolour(floors, _fit())
+    assert floors["c0"]["value"] == 5.0 * sw[0]
+
+
 def test_a_polish_that_rises_never_replaces_the_kept_fit(monkeypatch):
     """The kept candidate is refitted from its optimum; when that refit comes out worse (it started
     elsewhere), the trial's fit stays (lag case: 0.020 → 0.21 held out was kept, and a freed unsprung mass
