@@ -224,6 +224,7 @@ class System:
 
         # effects ------------------------------------------------------------------------------------
         self.effects = []
+        self._effect_tendons: list = []
         for i, ecfg in enumerate(sc0.vehicle.effects):
             ecls = EFFECTS.get(ecfg.type, field=f"vehicle.effects.{i}.type", source=source)
             sel = list(range(nc)) if ecfg.corners == "all" else [self.geom.corner_names.index(c) for c in ecfg.corners]
@@ -232,12 +233,13 @@ class System:
                                     source=source, field=f"vehicle.effects.{i}.type")
             plist = validate_many(ecls.Params, [s.vehicle.effects[i].params for s in self.scenarios],
                                   f"vehicle.effects.{i}.params", source)
+            # the effect's tendons (its effective mass is recomputed when a varying mass changes it)
+            self._effect_tendons.append((P.tire_t if ecls.target == "tire" else P.susp_t)[:, sel])
             ctx = EffectContext(n_cars=n, corners=[self.geom.corner_names[c] for c in sel], dt=self.dt,
                                 static_suspension_force=P.static_susp[:, sel], static_tire_force=P.static_tire[:, sel],
                                 spring_stiffness=ks[:, sel], damping=cs[:, sel], tire_stiffness=kt[:, sel],
                                 tire_damping=ct[:, sel],
-                                effective_mass=self.tendon_effective_mass(
-                                    (P.tire_t if ecls.target == "tire" else P.susp_t)[:, sel]))
+                                effective_mass=self.tendon_effective_mass(self._effect_tendons[-1]))
             self.effects.append((ecls(stack_params(plist, len(sel)), ctx), np.asarray(sel)))
         # the name an effect's signals are logged under (effect.LABEL.SIGNAL.k): the type's name, and for a second
         # effect of the same type (e.g. bump stops front and rear with other gaps) NAME#2, NAME#3, ... so that
@@ -298,6 +300,7 @@ class System:
                 self._const_scratch = mujoco.MjData(m)
             arr = getattr(m, fld).reshape(-1) if fld == "body_inertia" else getattr(m, fld)
             self.variations.append(ModelVariation(arr, idx, cfgs))
+        self._mass_sig = self._mass_signature()  # the masses the effects' effective masses were computed at
 
         # manoeuvre (inertial loads) --------------------------------------------------------------------
         self.maneuver = None
@@ -472,6 +475,29 @@ class System:
             # MuJoCo precomputes the mass matrix of simple (slide-joint) bodies (dof_M0) in mj_setConst: without
             # this a mass change would alter gravity but not inertia
             mujoco.mj_setConst(self.plant.model, self._const_scratch)
+            self.update_effective_masses()
+
+    def _mass_signature(self):
+        m = self.plant.model
+        return m.body_mass.tobytes() + m.body_inertia.tobytes()
+
+    def update_effective_masses(self) -> None:
+        """After a varying mass changed the model's masses: each effect's effective mass along its tendon
+        (``EffectContext.effective_mass``, the stick-slip friction's ``m_r``) from the current mass matrix, written
+        into the running kernel parameters (as :meth:`Effect.set_param` does).  A stick-slip law that kept the
+        initial mass under the thesis's +150 kg load (250 kg against 400) made its sticking force and its
+        reversal time inside a step those of the lighter body: first order in the step again."""
+        sig = self._mass_signature()
+        if sig == self._mass_sig:
+            return
+        self._mass_sig = sig
+        self.__dict__.pop("_Mfull", None)  # the mass matrix at the new masses
+        for (eff, _), tendons in zip(self.effects, self._effect_tendons):
+            if eff.ctx.effective_mass is None:
+                continue
+            eff.ctx.effective_mass = self.tendon_effective_mass(tendons)
+            if type(eff).kernel is not None and getattr(eff, "_kd", None) is not None:
+                eff._kd[0][...] = eff.parameter_rows()
 
     def road_preview(self, t, dist):
         out = np.empty((self.plant.n, self.plant.nc))
@@ -498,6 +524,9 @@ class System:
         self.controller.reset()
         for var in self.variations:
             var.restore()  # the model and the effects restart from their nominal parameters
+        if self._const_scratch is not None:  # and the mass matrix and the effects' effective masses with them
+            mujoco.mj_setConst(self.plant.model, self._const_scratch)
+            self.update_effective_masses()
         for e, _ in self.effects:
             e.reset()
         for j, ch in enumerate(self.sensors):

@@ -126,3 +126,28 @@ def test_a_string_parameter_cannot_vary_and_corners_must_be_the_effects(tmp_path
     p.write_text(yaml.safe_dump(raw))
     with pytest.raises(ScenarioError, match=r"vehicle\.variations\.0\.corners: unknown corner"):
         load_scenario(p)
+
+
+def test_stick_slip_effective_mass_follows_a_varying_mass():
+    """The stick-slip friction's m_r (its sticking force and a reversal's time inside a step) is the effective
+    mass at the current masses: under a +150 kg load step on the 250 kg rig it is 400 kg, not the initial 250
+    (which made the law first order in the step under the thesis Ch. 4 load), and a new run starts at 250 again."""
+    def sc(dur):
+        return parse_scenario({
+            "name": "mr", "vehicle": {
+                "model": "sdof", "params": {"sprung_mass": 250, "spring_stiffness": 5000, "damping": 0},
+                "effects": [{"type": "coulomb_friction",
+                             "params": {"force": 1000, "law": "stick_slip", "step_force": "mean"}}],
+                "variations": [{"param": "sprung_mass", "kind": "step", "mode": "add", "times": [0.5, 1.0],
+                                "values": [150, 0]}]},
+            "road": {"type": "sine", "params": {"amplitude": 0.03, "frequency": 1.0}},
+            "sim": {"duration": dur, "dt": 1e-4, "control_dt": 0.01, "log_dt": 1e-3, "integrator": "RK4"}})
+    sim = Simulation([sc(0.8)])
+    sim.run()
+    m_r = lambda: float(sim.effects[0][0].kernel_arrays()[0][0, 0, 1])  # noqa: E731 (p = [F_c, m_r, ...])
+    assert m_r() == pytest.approx(400.0, rel=1e-9)  # during the load
+    sim.reset()
+    assert m_r() == pytest.approx(250.0, rel=1e-9)  # a new run: the nominal mass
+    sim = Simulation([sc(1.2)])
+    sim.run()
+    assert m_r() == pytest.approx(250.0, rel=1e-9)  # the load removed at 1.0 s
