@@ -219,9 +219,9 @@ def test_reproduce_thesis_ch4_load_step(tmp_path):
     assert abs(k4["mrac_force"] - 150 * 9.81) < 200 and k4["wrong_theta_gap_60s"] < 0.25
     # Ch. 4 step halving (RK4 at 0.0625 ms): every deterministic key converged, the wrong design's level and following
     # too (they wandered with implicitfast's step, the page), the remaining Θ gap compared against its initial value.
-    # The chaotic Q variant's 64-run means are statistical keys (with the standard error of their change); they are
-    # not asserted to agree: at this setting the level and force means moved by 2.2 and 2.4 standard errors on
-    # halving (force 1441 ± 29 -> 1615 ± 65 N), which the check reports as not converged (the page)
+    # The chaotic Q variant's 64-run means, medians and fraction past the stops are statistical keys (with the
+    # standard error of their change); they are not asserted to agree: on halving the force's whole distribution
+    # moved up ≈ 100 N (median 1438 ± 27 -> 1561 ± 22 N), which the check reports as not converged (the page)
     c4 = s["ch4_load_step"]["convergence"]
     q = [k for k in c4 if k.startswith("q_ensemble_")]  # means, medians and the fraction past the stops
     assert len(q) == 6
