@@ -198,9 +198,11 @@ def generate_source(effects, actuator, controller, sensors=(), shape=None) -> st
                   else "")
     acc_read = any(f in (FIELDS.index("body_acc"), FIELDS.index("corner_body_acc"), FIELDS.index("wheel_acc"))
                    for f, _ in sensors)
+    mean_read = any(FIELDS[f].endswith("_acc_mean") for f, _ in sensors)
     body = f'''
 PRE = {PRE}
 ACC_READ = {acc_read}  # a sensor reads an acceleration
+MEAN_READ = {mean_read}  # a sensor reads a period-mean acceleration
 
 
 @njit(cache=True, inline="always")
@@ -320,7 +322,8 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                         bad = True
                 if bad:
                     return -(k + 1)
-                period_mean_acc(qvel, v_ctrl, acc_dofs, acc_period, accm)  # as loop.steps, before the sensors
+                if MEAN_READ or not full_control:  # read by the sensors (Python's, in the hybrid loop)
+                    period_mean_acc(qvel, v_ctrl, acc_dofs, acc_period, accm)  # as loop.steps, before the sensors
                 if not full_control:
                     return k
                 # sensors: true value -> delay -> bias + noise -> quantisation -> sample-and-hold
@@ -385,9 +388,10 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                             tv = tv - road_zd[jr, i, c]
 {''.join(tire_calls) if tire_calls else "                        pass" + chr(10)}{''.join(susp_calls)}                    F_eff[i, c] = f
                     F_teff[i, c] = ft
-                    ctrl[eff_s[i, c]] = f
-                    if has_tire and road_dof:
-                        ctrl[eff_t[i, c]] = ft
+                    if not trap:  # (the trapezoidal scheme's lines below write both)
+                        ctrl[eff_s[i, c]] = f
+                        if has_tire and road_dof:
+                            ctrl[eff_t[i, c]] = ft
                 if trap:  # the explicit half of the linear dampers (loop.steps)
                     ctrl[eff_s[i, c]] = F_eff[i, c] + (-half_cs[i, c] * v)
                     ctrl[eff_t[i, c]] = (F_teff[i, c] + tire_ct[i, c] * road_zd[jr, i, c]) + \\
@@ -396,29 +400,43 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                     ctrl[eff_t[i, c]] = F_teff[i, c] + tire_ct[i, c] * road_zd[jr, i, c]
                 ctrl[act[i, c]] = Fa
             if logw:
+                # a channel that is not logged has column -1 (a batch without time series keeps only what
+                # the metrics read): neither read nor written
                 Lr = row(row(L, jl), i)
                 for b in range(nb):
                     if LC[0, b] >= 0:
                         Lr[LC[0, b]] = qpos[body_q[i, b]]
+                    if LC[1, b] >= 0:
                         Lr[LC[1, b]] = qvel[body_v[i, b]]
                 for c in range(nc):
-                    Lr[LC[3, c]] = ten_len[susp_t[i, c]]
-                    Lr[LC[4, c]] = ten_vel[susp_t[i, c]]
+                    if LC[3, c] >= 0:
+                        Lr[LC[3, c]] = ten_len[susp_t[i, c]]
+                    if LC[4, c] >= 0:
+                        Lr[LC[4, c]] = ten_vel[susp_t[i, c]]
                     if has_tire:
-                        Lr[LC[5, c]] = qpos[wheel_q[i, c]]
-                        Lr[LC[6, c]] = qvel[wheel_v[i, c]]
-                        tl = ten_len[tire_t[i, c]]
-                        tv = ten_vel[tire_t[i, c]]
-                        if not road_dof:
-                            tl = tl - road_z[jr, i, c]
-                            tv = tv - road_zd[jr, i, c]
-                        Lr[LC[7, c]] = -kt[i, c] * tl - ct[i, c] * tv + F_teff[i, c]
-                        Lr[LC[8, c]] = F_teff[i, c]
-                    Lr[LC[9, c]] = road_z[jr, i, c]
-                    Lr[LC[10, c]] = road_zd[jr, i, c]
-                    Lr[LC[11, c]] = cmd[i, c]
-                    Lr[LC[12, c]] = F_act[i, c]
-                    Lr[LC[13, c]] = F_eff[i, c]
+                        if LC[5, c] >= 0:
+                            Lr[LC[5, c]] = qpos[wheel_q[i, c]]
+                        if LC[6, c] >= 0:
+                            Lr[LC[6, c]] = qvel[wheel_v[i, c]]
+                        if LC[7, c] >= 0:
+                            tl = ten_len[tire_t[i, c]]
+                            tv = ten_vel[tire_t[i, c]]
+                            if not road_dof:
+                                tl = tl - road_z[jr, i, c]
+                                tv = tv - road_zd[jr, i, c]
+                            Lr[LC[7, c]] = -kt[i, c] * tl - ct[i, c] * tv + F_teff[i, c]
+                        if LC[8, c] >= 0:
+                            Lr[LC[8, c]] = F_teff[i, c]
+                    if LC[9, c] >= 0:
+                        Lr[LC[9, c]] = road_z[jr, i, c]
+                    if LC[10, c] >= 0:
+                        Lr[LC[10, c]] = road_zd[jr, i, c]
+                    if LC[11, c] >= 0:
+                        Lr[LC[11, c]] = cmd[i, c]
+                    if LC[12, c] >= 0:
+                        Lr[LC[12, c]] = F_act[i, c]
+                    if LC[13, c] >= 0:
+                        Lr[LC[13, c]] = F_eff[i, c]
                 for q in range(act_j.shape[0]):
                     for c in range(nc):
                         Lr[lc_act[q, c]] = a_st[i, c, act_j[q]]
@@ -465,7 +483,8 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                             Lr[LC[2, b]] = acc[body_v[i, b]]
                     if has_tire:
                         for c in range(nc):
-                            Lr[LC[14, c]] = acc[wheel_v[i, c]]
+                            if LC[14, c] >= 0:
+                                Lr[LC[14, c]] = acc[wheel_v[i, c]]
         k += 1
     return k1
 '''
@@ -604,17 +623,22 @@ class _Layout:
 
     def keep_only(self, keep) -> None:
         """Log only the channels in ``keep`` (a batch without time series needs only what the metrics read):
-        the others are written to one scratch column, the last."""
+        in the table of the plant's channels (``LC``) the others get column -1 (the loop skips them: neither read
+        nor written); in the tables of actuator states, readings, controller and effect signals they go to one
+        scratch column, the last (those tables are trimmed to the rows that log something; see ``run_steps``)."""
         if keep is None:
             return
         kept = [j for j, name in enumerate(self.names) if name in keep]
         remap = np.full(len(self.names), len(kept), dtype=np.int64)
         remap[kept] = np.arange(len(kept))
         self.names = [self.names[j] for j in kept] + ["__scratch__"]
-        for attr in ("LC", "lc_act", "lc_y", "lc_ctrl"):
+        for attr in ("lc_act", "lc_y", "lc_ctrl"):
             a = getattr(self, attr)
             setattr(self, attr, np.where(a >= 0, remap[np.maximum(a, 0)], a))
         self.eff_lc = [remap[a] for a in self.eff_lc]
+        drop = np.full(len(remap), -1, dtype=np.int64)
+        drop[kept] = np.arange(len(kept))
+        self.LC = np.where(self.LC >= 0, drop[np.maximum(self.LC, 0)], -1)
 
 
 def _maneuver_joints(sim):
@@ -801,7 +825,6 @@ def run_steps(sim, mode: str, progress=None, logger=None):
         # contiguous rows (results._contiguous).  Every entry but the scratch column (never read) is written by
         # the loop, so the buffer may be an earlier run's that nothing references any more (buffers.empty: no
         # fresh pages to fault in and zero).
-        L = buffers.empty((cap, n, len(layout.names)))
         # the tables of the actuator states, readings, controller and effect signals keep only what is logged
         # (a batch without time series logs none of them: ~30 loads and stores per car and log step less)
         scratch = len(layout.names) - 1 if layout.names and layout.names[-1] == "__scratch__" else -1
@@ -812,6 +835,10 @@ def run_steps(sim, mode: str, progress=None, logger=None):
         for args, lc, pi in zip(eff_args, layout.eff_lc, eff_pi):
             lc, (sigj,) = _logged(lc, scratch, args[3])
             eff_full += args[:3] + [sigj, lc, pi]
+        if scratch >= 0 and not any((a == scratch).any() for a in [tabs["lc_act"], tabs["lc_y"], tabs["lc_ctrl"]]
+                                    + eff_full[4::6]):
+            layout.names.pop()  # no table writes to the scratch column any more: the log has none
+        L = buffers.empty((cap, n, len(layout.names)))
         return L, eff_full
 
     tabs = {}
