@@ -659,7 +659,8 @@ def ch4_load_step(ctx) -> ItemOutput:
              "of runs past the stops (q_ensemble_median_*, q_ensemble_stops_fraction) are less sensitive to the runs "
              "on the stops than the means; on halving the force's whole distribution moved up by ≈ 100 N (median "
              "1438 ± 27 → 1561 ± 22 N, 3.5 s.e.; with the friction at the start of each step the means had moved "
-             "by as much): not converged, the cause not found (the page).",
+             "by as much; a third step, 0.0156 ms, lies between the two): not converged, not monotone, the cause not "
+             "found (the page).",
              "The wrong design's remaining Θ gap at 60 s is compared against the initial gap (the claim is the "
              "fraction of the initial distance closed): it is the small difference of two Θ trajectories that each "
              "travel ≈ 5 (scaled) and converge at first order (wrong/right_theta_travel_60s, each against itself).  "
