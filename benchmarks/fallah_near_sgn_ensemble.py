@@ -22,7 +22,8 @@ ensemble can be grown in pieces.  Cost is printed as CPU seconds per realisation
 
 Run:  nice -n 10 python benchmarks/fallah_near_sgn_ensemble.py --n 512 [--k0 0] [--chunk 128]
       [--save runs/fallah_ens_0.npz] [--merge runs/fallah_ens_*.npz]
-      python benchmarks/fallah_near_sgn_ensemble.py --merge runs/fallah_ens_*.npz --n 0   (report only)
+      nice -n 10 python benchmarks/fallah_near_sgn_ensemble.py --third --n 512 --save runs/fallah_ens3_0.npz
+      python benchmarks/fallah_near_sgn_ensemble.py --merge "runs/fallah_ens*.npz" --n 0   (report only)
 """
 from __future__ import annotations
 
@@ -97,38 +98,80 @@ def report(ks: np.ndarray, x1: np.ndarray, x2: np.ndarray) -> None:
     print(f"  worse than passive: {np.sum(x1 > 1)} / {n} at 0.5 ms, {np.sum(x2 > 1)} / {n} at 0.25 ms")
 
 
+def report_third(k12, x1, x2, k3, x3) -> None:
+    """The third step (0.125 ms) on the realisations run there: the three means on the common realisations,
+    the two halving changes (paired s.e.) and the first-order step limit 2·m(0.125) − m(0.25)."""
+    common, i12, i3 = np.intersect1d(k12, k3, return_indices=True)
+    if len(common) < 2:
+        return
+    a, b, c = x1[i12], x2[i12], x3[i3]
+    n = len(common)
+    m = [v.mean() for v in (a, b, c)]
+    se = [v.std(ddof=1) / np.sqrt(n) for v in (a, b, c)]
+
+    def ch(u, v):
+        return 100 * (v.mean() / u.mean() - 1), 100 * (v - u).std(ddof=1) / np.sqrt(n) / u.mean()
+    (c1, e1), (c2, e2) = ch(a, b), ch(b, c)
+    lim = 2 * m[2] - m[1]
+    lim_se = np.sqrt(4 * se[2] ** 2 + se[1] ** 2)
+    print(f"third step, realisations {common.min()}–{common.max()} ({n} at each of 0.5, 0.25, 0.125 ms):")
+    print("  means " + ", ".join(f"{x:.4f} ± {e:.4f}" for x, e in zip(m, se)))
+    print(f"  halving 0.5 → 0.25 ms {c1:+.2f} ± {e1:.2f} %, 0.25 → 0.125 ms {c2:+.2f} ± {e2:.2f} % "
+          f"(first order: the second change is half the first)")
+    print(f"  first-order step limit 2·m(0.125) − m(0.25) = {lim:.4f} ± {lim_se:.4f}; the 0.5 ms mean is "
+          f"{100 * (m[0] / lim - 1):+.2f} % from it, the 0.25 ms mean {100 * (m[1] / lim - 1):+.2f} %")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--n", type=int, default=512, help="realisations per step to run (0: report the merged saves)")
     p.add_argument("--k0", type=int, default=0, help="first realisation index")
     p.add_argument("--chunk", type=int, default=128, help="cars per compiled-loop ensemble")
+    p.add_argument("--third", action="store_true",
+                   help="run the realisations at the third step only (0.125 ms physics), for the order and limit")
     p.add_argument("--save", help="save this run's per-realisation ratios (.npz)")
     p.add_argument("--merge", nargs="*", default=[], help="earlier saves (.npz, globs) to merge into the report")
     a = p.parse_args(argv)
-    parts = []
+    parts, thirds = [], []
     for pat in a.merge:
         for f in sorted(glob.glob(pat)):
             z = np.load(f)
-            parts.append((z["k"], z["x1"], z["x2"]))
+            if "x3" in z:
+                thirds.append((z["k"], z["x3"]))
+            else:
+                parts.append((z["k"], z["x1"], z["x2"]))
     if a.n > 0:
         ks = np.arange(a.k0, a.k0 + a.n)
-        x1, c1 = run_ratios(1.0, a.k0, a.n, a.chunk)
-        x2, c2 = run_ratios(0.5, a.k0, a.n, a.chunk)
-        print(f"cost: {c1:.4f} CPU-s per realisation at 0.5 ms, {c2:.4f} at 0.25 ms")
-        if a.save:
-            Path(a.save).parent.mkdir(parents=True, exist_ok=True)
-            np.savez(a.save, k=ks, x1=x1, x2=x2)
-        parts.append((ks, x1, x2))
+        if a.third:
+            x3, c3 = run_ratios(0.25, a.k0, a.n, a.chunk)
+            print(f"cost: {c3:.4f} CPU-s per realisation at 0.125 ms")
+            if a.save:
+                Path(a.save).parent.mkdir(parents=True, exist_ok=True)
+                np.savez(a.save, k=ks, x3=x3)
+            thirds.append((ks, x3))
+        else:
+            x1, c1 = run_ratios(1.0, a.k0, a.n, a.chunk)
+            x2, c2 = run_ratios(0.5, a.k0, a.n, a.chunk)
+            print(f"cost: {c1:.4f} CPU-s per realisation at 0.5 ms, {c2:.4f} at 0.25 ms")
+            if a.save:
+                Path(a.save).parent.mkdir(parents=True, exist_ok=True)
+                np.savez(a.save, k=ks, x1=x1, x2=x2)
+            parts.append((ks, x1, x2))
     if not parts:
-        print("nothing to report: give --n > 0 or --merge files", file=sys.stderr)
+        print("nothing to report: give --n > 0 or --merge files with both steps", file=sys.stderr)
         return 2
     ks = np.concatenate([q[0] for q in parts])
     x1 = np.concatenate([q[1] for q in parts])
     x2 = np.concatenate([q[2] for q in parts])
-    _, idx = np.unique(ks, return_index=True)  # a realisation saved twice counts once
-    if len(idx) < len(ks):
-        print(f"(dropped {len(ks) - len(idx)} duplicate realisations)")
-    report(ks[idx], x1[idx], x2[idx])
+    ks, idx = np.unique(ks, return_index=True)  # a realisation saved twice counts once
+    if len(idx) < sum(len(q[0]) for q in parts):
+        print("(dropped duplicate realisations)")
+    x1, x2 = x1[idx], x2[idx]
+    report(ks, x1, x2)
+    if thirds:
+        k3 = np.concatenate([q[0] for q in thirds])
+        k3, i3 = np.unique(k3, return_index=True)
+        report_third(ks, x1, x2, k3, np.concatenate([q[1] for q in thirds])[i3])
     return 0
 
 
