@@ -24,10 +24,12 @@ velocity-squared damper and friction of the primary), K_p(0) = M0 Ω1 − K0 and
 (so that the nominal error dynamics are exactly Ë + Ω2 Ė + Ω1 E = 0, the thesis's pole placement).
 The thesis gives no α_i, β_i, ω_e, ζ_e, Q⁺; the scenario files choose them.  Adaptation gains are
 normalised per regressor by a nominal magnitude (``v_scale``) so one α and one β serve all laws, and
-divided by 1 + |v|² (a normalised law — our addition: the raw law explodes on the ẅ impulse at a bump's
-edge).  Also ours, for robustness on the rough dirt road (where the bare laws drift until the loop
-goes unstable at the control step): a σ-leakage on the integral parts and a bound on each adapted entry
-(``gain_limit`` × its nominal entry, or 10 % of the matrix's largest entry if larger).
+divided by 1 + |v|² (``normalised``, a normalised law — our addition: the raw law explodes on the ẅ impulse at a
+bump's edge).  Also ours, for robustness on the rough dirt road (where the bare laws drift until the loop
+goes unstable at the control step): a σ-leakage on the integral parts (``sigma``) and a bound on each adapted entry
+(``gain_limit`` × its nominal entry, or 10 % of the matrix's largest entry if larger).  ``normalised: false``,
+``sigma: 0``, ``gain_limit: null`` are the printed laws (the scenarios' default controller; our additions are their
+named variants).
 
 ``keep_cancellation`` (ours, off by default): with the nominal gains row 0 of K_p and K_v is
 [M_s·ω_e² − K_s, M_s·ω_e²] and [M_s·2ζω_e − C_s, M_s·2ζω_e], so a motion δ of the primary alone (E = [δ, −δ])
@@ -79,15 +81,20 @@ class MDOFParams(Params):
     error_zeta: float = Field(1.0, gt=0, description="ζ_e of the desired error dynamics")
     alpha: float = Field(1.0, ge=0, description="integral adaptation gain α_i (all laws, normalised)")
     beta: float = Field(0.1, ge=0, description="proportional adaptation gain β_i (all laws, normalised)")
-    sigma: float = Field(0.2, ge=0, description="leakage σ (1/s) on the integral parts (σ-modification, our addition)")
-    gain_limit: float = Field(1.0, gt=0, description="each adapted gain entry stays within ± gain_limit × its nominal scale")
+    sigma: float = Field(0.0, ge=0, description="leakage σ (1/s) on the integral parts (σ-modification, our addition; "
+                         "0 = the thesis)")
+    gain_limit: float | None = Field(None, gt=0, description="each adapted gain entry stays within ± gain_limit × its "
+                                     "nominal scale (our addition); null = no bound (the thesis)")
+    normalised: bool = Field(False, description="divide each law's step by 1 + |v|² (a normalised law, our addition); "
+                             "false = the printed laws (Eq. 6.67)")
     adapt_model: bool = Field(True, description="adapt M0, C0, K0, D0 as well (False: only K_p, K_v, U_ax)")
     keep_cancellation: bool = Field(False, description="ours, not the thesis's: row 0 of K_p and K_v adapts its two "
                                     "entries by the same step, keeping the nominal cancellation of the primary's motion")
 
 
 # ---- the law: one control step for one car (suspension_sim.compiled) ---------------------------------------
-# p: sensor offsets (travel, travel_rate, road[-1], road_vel[-1]); h, α, β, σ, flags (adapt_model + 2·keep_cancellation); R2, R3, P⁻¹
+# p: sensor offsets (travel, travel_rate, road[-1], road_vel[-1]); h, α, β, σ, flags (adapt_model + 2·keep_cancellation
+# + 4·normalised); R2, R3, P⁻¹
 # (2 × 2 each), rows 2–3 of the reference A (2 × 4) and B (2); the reference filter's header; a table of the
 # 7 gains (_KEYS order: n columns, p offset of [v_scale, G0, g_scale, limit], st offsets of I, G and the
 # regressor); then those blocks.  st: the signals ref_z = Z_m (2), err = E (2), ref_acc, ref_x; ẇ_prev,
@@ -135,8 +142,9 @@ def _kernel(t, y, p, st, u):
     b = p[6]
     sig = p[7]
     flags = int(p[8])
-    nkeys = 7 if flags % 2 != 0 else 3
-    keep = flags >= 2
+    nkeys = 7 if (flags & 1) != 0 else 3
+    keep = (flags & 2) != 0
+    normed = (flags & 4) != 0
     for kk in range(nkeys):
         tb = _P_KEYS + 5 * kk
         nk = int(p[tb])
@@ -147,7 +155,9 @@ def _kernel(t, y, p, st, u):
         vs = p[pb]
         for j in range(nk):
             st[_ST_V + j] = st[ro + j] / vs
-        nrm = 1.0 + k_dot(st, _ST_V, st, _ST_V, nk)
+        nrm = 1.0
+        if normed:
+            nrm += k_dot(st, _ST_V, st, _ST_V, nk)
         for i in range(2):
             for j in range(nk):
                 e = i * nk + j
@@ -242,7 +252,8 @@ class MDOFAdaptive(Controller):
                self.ctx.sensor_slice("road")[1] - 1, self.ctx.sensor_slice("road_vel")[1] - 1]
         lay.p([float(o) for o in off] + [self.ctx.control_dt, shared_value(p.alpha), shared_value(p.beta),
                                          shared_value(p.sigma),
-                                         float(bool(p.adapt_model)) + 2.0 * float(bool(p.keep_cancellation))])
+                                         float(bool(p.adapt_model)) + 2.0 * float(bool(p.keep_cancellation))
+                                         + 4.0 * float(bool(p.normalised))])
         assert lay.p(self.R2) == _P_R2 and lay.p(self.R3) == _P_R3 and lay.p(self.Pinv) == _P_PI
         assert lay.p(self.Ar[2:]) == _P_AR and lay.p(self.Br[2:, 0]) == _P_BR
         assert lay.p(np.zeros(ZOH_HEADER + 5 * len(_KEYS))) == _P_REF
@@ -251,7 +262,8 @@ class MDOFAdaptive(Controller):
         table = []
         for k in _KEYS:
             g0 = np.asarray(self.G0[k], dtype=float)
-            lim = shared_value(p.gain_limit) * self.g_scale[k]
+            gl = shared_value(p.gain_limit) if p.gain_limit is not None else np.inf
+            lim = gl * self.g_scale[k]
             pb = lay.p(np.concatenate([[self.v_scale[k]], g0.ravel(), self.g_scale[k].ravel(), lim.ravel()]))
             io = lay.st(np.zeros(g0.size))  # integral part I
             go = lay.st(g0.ravel())  # gain G

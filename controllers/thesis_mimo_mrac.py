@@ -86,7 +86,7 @@ class MIMOParams(Params):
     p0_bias: float = Field(1.0, gt=0, description="initial covariance of the bias (operating-point force) parameter")
     q_bias: float = Field(0.1, ge=0, description="covariance addition of the bias parameter")
     trace_max: float = Field(5.0, gt=0, description="trace bound")
-    kappa: float = Field(0.2, gt=0, le=1, description="control-increment weighting (1 = thesis)")
+    kappa: float = Field(1.0, gt=0, le=1, description="control-increment weighting (1 = the thesis; < 1 ours)")
     beta_inv_range: tuple[float, float] = Field((0.2, 5.0), description="allowed (β0)⁻¹ diagonal / nominal")
     road_feedforward: bool = Field(True, description="U_T = u + K0·w + C0·ẇ (see module doc)")
     probe_amplitude: float = Field(0.0, ge=0, description="closed-loop probing (ours, not the thesis's): a random "
