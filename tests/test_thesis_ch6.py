@@ -138,7 +138,7 @@ def test_structure_preserving_law_gives_the_reference_acceleration(request):
     """Ours, not the thesis's (variant adaptive_structured): adapting row 0 of K_p and K_v as one keeps the
     nominal cancellation of the primary's motion; on the random road the body acceleration is then the
     reference's while the secondary rattle-space error is still below the non-adaptive one (adaptation
-    exercised).  The printed laws (variant adaptive) fail the acceleration bound."""
+    exercised).  The entry-wise laws of variant adaptive (ours normalised) fail the acceleration bound."""
     sc = parse_scenario(read_yaml(request.config.rootpath / "scenarios" / "thesis_ch6_random.yaml"))
     runs = dict(sc.expand())
     runs["nonadaptive"] = runs["adaptive"].model_copy(deep=True)
@@ -200,7 +200,7 @@ def test_wrong_start_on_the_random_road_reaches_the_right_design(request):
     random road (the scenario's 20 s) from the stated wrong design (K_s −30 %, K_p +30 %, C_s +30 %, C0_p −30 %) the
     secondary rattle-space error at 12–20 s is within 20 % of the right design's (measured 0.42 vs 0.36 mm), while
     the same wrong design with adaptation off (the baseline) is not (0.88 mm).  (The primary error sits at 1.2× the
-    right design's, the page's "partly"; the body acceleration is the printed laws' K_v drift,
+    right design's, the page's "partly"; the body acceleration is the entry-wise laws' K_v drift,
     test_random_road_acceleration_comes_from_the_kv_drift.)"""
     ts = _wrong_start(request.config.rootpath, "thesis_ch6_random", "wrong_design")
     e = {k: _errs(t, 12, 20) for k, t in ts.items()}
