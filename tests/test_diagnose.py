@@ -308,6 +308,39 @@ def test_a_round_at_the_noise_floor_is_not_fitted_and_decides_the_same(monkeypat
     assert runs[True][2] and all(not t.applicable and "noise floor" in t.reason for t in runs[True][2])
 
 
+def test_a_travel_sensor_zeroed_off_the_ride_height_is_not_read_as_a_mass():
+    """Rule (g) of the selection: a travel sensor zeroed 3 mm off the nominal ride height (model says
+    ``position_zero: nominal``) is read as sag; a freed sprung mass ~2 % light takes the travel.  It is kept only
+    when it beats the same model with a free travel offset by training BIC.  Baseline (rule off): the mass is
+    named.  With the rule: nothing is named and the offset is reported (3 mm); a car truly 10 % heavier, its
+    sag shown at the same sensor, still has its mass named (the rival explains the sag but not the dynamics)."""
+    from suspension_sim.diagnose.model import load_model
+    from suspension_sim.diagnose.select import Selector
+
+    out = ["body_acc", "wheel_acc", "susp_travel"]
+
+    def run(rule, mass=290.0, offset=0.0):
+        d = truth.simulate_truth("quarter_car", 4, 1000, {}, params={"sprung_mass": mass}, seed=5, road_rms=0.01,
+                                 noise=0.02, outputs=out)
+        travel = d["susp_travel"] + offset - (mass - 290.0) * 9.81 / 16812.0  # the sag at the nominal zero
+        rec = record_from_arrays("quarter_car", d["time"], {"road": d["road"]},
+                                 {"body_acc": d["body_acc"], "wheel_acc": d["wheel_acc"], "susp_travel": travel})
+        sel = Selector(rec, load_model(QC), workers=1, max_effects=1, candidates=["parameter"])
+        sel.sensor_zero_rule = rule
+        return sel.run()
+
+    base = run(False, offset=0.003)
+    assert [c.name for c, _, _ in base.added] == ["parameter:sprung_mass"] and base.sensor_zero is None
+    D = run(True, offset=0.003)
+    assert D.added == [] and D.final.spec.position_zero == "measured"
+    assert abs(D.sensor_zero["offsets"]["susp_travel"] - 0.003) < 1e-4
+    assert D.sensor_zero["beats"][0]["candidate"] == "parameter:sprung_mass"
+    assert any("position sensors' zero explains it better" in t.reason for t in D.trials)
+    heavy = run(True, mass=319.0)
+    assert [c.name for c, _, _ in heavy.added] == ["parameter:sprung_mass"] and heavy.sensor_zero is None
+    assert abs(heavy.final.params["sprung_mass"] - 319.0) < 0.01 * 319.0
+
+
 def test_screening_window_is_short_only_where_the_record_is_at_its_level():
     """A long record is screened on its first 8000 samples when they carry its excitation level; a record whose
     excitation grows is screened on more of it (here: all of it); a short one is not screened."""

@@ -283,6 +283,7 @@ def build_report(D: Diagnosis, out: Path, confirm: bool = True, plots: bool = Tr
                    "notes": D.record.notes, "inputs": list(D.record.inputs), "outputs": D.prob.channels},
         "verdict": verdict(D, effects, before, after),
         "unexplained_x_floor": D.unexplained,
+        "sensor_zero": D.sensor_zero,
         "proposal": D.proposal,
         "not_separable": not_separable(D),
     }
@@ -336,6 +337,12 @@ def verdict(D, effects, before, after) -> str:
     tail = (f" Unexplained: {D.unexplained:.1f}× the noise floor (the library cannot explain the rest)."
             if D.unexplained else "")
     pairs = sorted({(r["candidate"], r["parameter"]) for r in not_separable(D)})
+    if D.sensor_zero:  # rule (g) of the selection: the honest finding, not an effect
+        z = D.sensor_zero
+        tail += (" The position sensors' zero differs from the nominal ride height: "
+                 + ", ".join(f"{c} reads {1e3 * o:+.2f} mm there" for c, o in z["offsets"].items())
+                 + " (a free sensor offset explained the record better than "
+                 + ", ".join(b["candidate"] for b in z["beats"]) + " by training BIC; the offsets are now fitted).")
     if pairs:
         tail += " Not separable on this record: " + ", ".join(f"{c} vs the fitted {p}" for c, p in pairs) + \
                 " (either explains the data; the earlier physics is kept)."
@@ -343,7 +350,8 @@ def verdict(D, effects, before, after) -> str:
         if D.unexplained:
             return "No candidate effect lowers the held-out error beyond the noise: nothing is named." + tail
         return ("No candidate effect lowers the held-out error beyond the noise: nothing is named. "
-                "The calibrated nominal model is as good as any in the library on this record.")
+                "The calibrated nominal model" + (" (with the position sensors' zero fitted)" if D.sensor_zero else "")
+                + " is as good as any in the library on this record." + tail)
     names = ", ".join(e["name"] + (f" ({'; '.join(e['notes'].values())})" if e.get("notes") else "")
                       for e in effects)
     tb = np.sqrt(np.mean(np.square(list(before["test"].values()))))

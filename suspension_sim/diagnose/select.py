@@ -12,7 +12,14 @@ models.
    floor** (a change that trades one channel for another is not a better model); (f) **its size is
    distinguishable from zero** (a single size parameter, e.g. a friction force, beyond 2 standard errors of
    zero; several together by their joint covariance, :func:`size_zero`); the parameters stay within their
-   physical bounds by construction (the fit is bounded).
+   physical bounds by construction (the fit is bounded); (g) **the sensor-zero rule**: a freed parameter that
+   moves the static sag (a mass: :func:`sag_params`), with position sensors zeroed at the nominal ride height,
+   is kept only when it beats the rival explanation, the same model with a free offset on each position
+   channel (the parameter at its stated value), by BIC on the training window (the rival pays ``log n`` per
+   offset).  A travel sensor zeroed 3 mm off the ride height was read as sag: a mass 19 kg light took the travel
+   while making both accelerations worse, each by less than one floor (blind battery null_van_travel_zero).
+   When the rival has the lowest BIC of the round, it is adopted (the position sensors get free offsets, no
+   effect is named, the search goes on) and the report says how far their zero is from the ride height.
 4. The kept candidate with the lowest BIC is added, and the search repeats (up to ``max_effects``).
 5. **Beam over pairs**: when no single candidate is kept while the held-out error is still more than
    ``far`` (3) times the noise floor, the ``beam`` (4) candidates with the best training cost are tried
@@ -57,9 +64,9 @@ import numpy as np
 from scipy.signal import welch
 
 from .calibrate import FitResult, Problem, fit
-from .candidates import Candidate, Scales, library
+from .candidates import Candidate, ParameterCandidate, Scales, library
 from .io import Record
-from .model import ModelSpec
+from .model import ModelSpec, is_position
 
 
 def noise_floor(y: np.ndarray, fs_hz: float) -> float:
@@ -283,6 +290,19 @@ def placement_refused(parent: "Trial | None") -> str:
     return ""
 
 
+def sag_params(kind: str) -> set:
+    """The parameters of a model kind that move its static sag where position sensors zeroed at the nominal ride
+    height see it: the masses (:func:`suspension_sim.vehicles.base.mass_params` less the inertias, which carry no
+    weight).  A changed stiffness keeps the static preload (the engine re-levels it: the same ride height), so
+    it does not move the sag."""
+    if kind == "damper":
+        return set()
+    from ..registry import VEHICLES
+    from ..vehicles.base import mass_params
+
+    return {n for n in mass_params(VEHICLES.get(kind)) if "inertia" not in n}
+
+
 def default_workers() -> int:
     """Threads that fit candidates side by side: the cores this process may use (at most 4)."""
     import os
@@ -337,6 +357,7 @@ class Diagnosis:
 
     unexplained: float | None = None  # final held-out error / noise floor when far above it
     proposal: dict | None = None  # a law beyond the library (sparse fit to the residual force)
+    sensor_zero: dict | None = None  # the position sensors' zero, when the sensor-zero rule (g) adopted it
 
     def sims(self, fitres: FitResult):
         """(train/whole-record simulation, test simulation) of a fit, with its fitted channel offsets."""
@@ -405,6 +426,7 @@ class Selector:
     spectral_gate = False  # the spectral z decides too (off: the matrix's two:coulomb+cubic then named a
     # stand-in bump stop beside the true pair in both seeds; with the block test alone it names the pair)
     skip_at_floor = True  # a round after the first is not fitted at the floor (module docstring, "Speed")
+    sensor_zero_rule = True  # rule (g) of the module docstring (off: the baseline of its test)
     def __init__(self, rec: Record, spec: ModelSpec, split: float = 0.7, test_record: Record | None = None,
                  floors: dict | None = None, candidates: list[str] | None = None, max_effects: int = 3,
                  screen_samples: int = 8000, min_excess_drop: float = 0.10, z_min: float = 2.0,
@@ -645,6 +667,62 @@ class Selector:
                         "separable": bool(rho < RHO_SEPARABLE)})
         return out
 
+    def _set_position_zero(self, spec: ModelSpec):
+        """Free (or not) the position channels' offsets as ``spec.position_zero`` says, in every problem."""
+        for p in (self.prob, self.test_prob):
+            if p is not None:
+                p.set_offsets(spec)
+
+    def _sensor_zero(self, kept: list, current_spec: ModelSpec, current: FitResult, cur_screen: FitResult,
+                     a: int, bs: int, b: int):
+        """Rule (g) (module docstring): each kept result that frees a sag-moving parameter is held against the
+        current model with free position offsets (fitted on the same window), by training BIC.  Returns (the
+        kept results it leaves, and (spec, screening fit, fit, finding) of the rival when it has the lowest BIC
+        of all kept results, else None)."""
+        if current_spec.position_zero != "nominal":
+            return kept, None
+        sag = sag_params(self.rec.kind)
+        moving = [r for r in kept if any(isinstance(c, ParameterCandidate) and c.pname in sag for c in r[0])]
+        freed = [c for c in self.prob.channels if is_position(c)]
+        if not moving or not freed:
+            return kept, None
+        spec_z = _with_fit(current_spec, cur_screen)
+        spec_z.position_zero = "measured"
+        self._set_position_zero(spec_z)
+        try:
+            fs = fit(self.prob, spec_z, a, bs, max_nfev=60)
+        finally:
+            self._set_position_zero(current_spec)
+        bic_z = fs.bic() + len(freed) * np.log(fs.n)
+        out, beaten = [], []
+        for r in kept:
+            tr = r[2]
+            if any(r is m for m in moving) and bic_z <= tr.bic:
+                tr.kept = False
+                tr.reason = (f"rejected: the position sensors' zero explains it better (rule (g): a free offset "
+                             f"on {', '.join(freed)} at the stated value, training BIC {bic_z:.1f} against "
+                             f"{tr.bic:.1f})")
+                beaten.append({"candidate": tr.name, "bic": float(tr.bic)})
+                self.log(f"  {tr.name}: {tr.reason[len('rejected: '):]}")
+            else:
+                if any(r is m for m in moving):
+                    self.log(f"  {tr.name}: beats the position sensors' zero (rule (g): training BIC {tr.bic:.1f} "
+                             f"against {bic_z:.1f} with a free offset on {', '.join(freed)})")
+                out.append(r)
+        if not beaten or any(r[2].bic < bic_z for r in out):
+            return out, None
+        fr = fs
+        if bs < b:
+            self._set_position_zero(spec_z)
+            try:
+                fr = fit(self.prob, _with_fit(spec_z, fs), a, b, max_nfev=30)
+            finally:
+                self._set_position_zero(current_spec)
+        idx = [self.prob.channels.index(c) for c in freed]
+        finding = {"offsets": {c: float(fr.offsets[i]) for c, i in zip(freed, idx)}, "bic": float(bic_z),
+                   "bic_before": float(cur_screen.bic()), "beats": beaten}
+        return out, (spec_z, fs, fr, finding)
+
     def _polish(self, spec_c: ModelSpec, fr: FitResult, a: int, bs: int, b: int) -> tuple[FitResult, FitResult]:
         """Refit a kept candidate from its own optimum (longer, and on the whole training part when it was
         screened on less).  A refit never replaces a better fit: the polish is kept only when its training
@@ -734,6 +812,8 @@ class Selector:
 
     def _search(self, pool) -> Diagnosis:
         import time
+
+        sensor_zero = None
 
         T = {}
         t0 = time.perf_counter()
@@ -973,6 +1053,17 @@ class Selector:
                     jobs = [(([ok_res[i][0][0], ok_res[j][0][0]], rnd, current_spec, current, cur_screen, e_screen),
                              {"starts_from": (ok_res[i][3], ok_res[j][3])}) for i, j in pairs]
                     kept += [r for r in attempts(jobs) if r[2].kept]
+                zero = None
+                if self.sensor_zero_rule:
+                    kept, zero = self._sensor_zero(kept, current_spec, current, cur_screen, a, bs, b)
+                if zero is not None:
+                    # rule (g): the position sensors' zero is adopted (no effect named), and the search goes on
+                    spec_z, fs_z, fr_z, sensor_zero = zero
+                    self._set_position_zero(spec_z)
+                    current_spec, current, cur_screen, e_cur, e_screen, floor_n = adopt(spec_z, fr_z, fs_z)
+                    self.log("adopted free position-sensor offsets (rule (g)): " + ", ".join(
+                        f"{c} {1e3 * o:+.2f} mm" for c, o in sensor_zero["offsets"].items()))
+                    continue
                 chosen = None
                 for cands, spec_c, tr, fr in sorted(kept, key=lambda r: r[2].bic):
                     fs, fr = self._polish(spec_c, fr, a, bs, b)
@@ -1043,7 +1134,7 @@ class Selector:
         T["search"] = time.perf_counter() - t0 - T["calibrate"]
         flat_added = [(c, fr, tr) for cs, fr, tr in added for c in cs]
         D = Diagnosis(self.rec, self.prob, self.test_prob, self.train, self.test, floors, nominal, current,
-                      flat_added, trials, sc, T)
+                      flat_added, trials, sc, T, sensor_zero=sensor_zero)
         for c in self.recolour(floors, current):
             self.log(f"noise floor of {c} raised to {floors[c]['value']:.4g}: the final residual is coloured noise")
         floor_n = np.array([floors[c]["nrmse"] for c in self.prob.channels])
