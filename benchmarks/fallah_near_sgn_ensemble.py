@@ -23,6 +23,7 @@ ensemble can be grown in pieces.  Cost is printed as CPU seconds per realisation
 Run:  nice -n 10 python benchmarks/fallah_near_sgn_ensemble.py --n 512 [--k0 0] [--chunk 128]
       [--save runs/fallah_ens_0.npz] [--merge runs/fallah_ens_*.npz]
       nice -n 10 python benchmarks/fallah_near_sgn_ensemble.py --third --n 512 --save runs/fallah_ens3_0.npz
+      nice -n 10 python benchmarks/fallah_near_sgn_ensemble.py --integrator RK4 --n 512 --save runs/fallah_ensi_0.npz
       python benchmarks/fallah_near_sgn_ensemble.py --merge "runs/fallah_ens*.npz" --n 0   (report only)
 """
 from __future__ import annotations
@@ -41,12 +42,15 @@ sys.path.insert(0, str(ROOT))
 LABEL = "5 m bump, a = 1000"
 
 
-def build(step_factor: float, k0: int, n: int):
+def build(step_factor: float, k0: int, n: int, integrator: str | None = None):
     """The passive reference and realisations k0 … k0+n−1 of the row, built by the item's own functions."""
     from suspension_sim.reproductions.fallah import bb_realisation, bb_scenarios
     from suspension_sim.reproductions.framework import Context
 
     v = bb_scenarios(Context(step_factor), LABEL, only=["passive", "fallah"])
+    if integrator:
+        for sc in v.values():
+            sc.sim.integrator = integrator
     return v["passive"], [bb_realisation(v["fallah"], j) for j in range(k0, k0 + n)]
 
 
@@ -55,10 +59,10 @@ def rms(x):
     return float(np.sqrt(np.mean(x * x)))
 
 
-def run_ratios(step_factor: float, k0: int, n: int, chunk: int) -> tuple[np.ndarray, float]:
+def run_ratios(step_factor: float, k0: int, n: int, chunk: int, integrator: str | None = None):
     from suspension_sim.simulation import Simulation
 
-    passive, scs = build(step_factor, k0, n)
+    passive, scs = build(step_factor, k0, n, integrator)
     pa = rms(Simulation([passive]).run()[0].ts.body_acc)
     out = []
     c0 = time.process_time()
@@ -124,6 +128,26 @@ def report_third(k12, x1, x2, k3, x3) -> None:
           f"order the step limit would be 2·m(0.125) − m(0.25) = {lim:.4f} ± {lim_se:.4f}")
 
 
+def report_integrator(name, k12, x1, x2, k3, x3, ki, xi) -> None:
+    """Another integrator at the scenario's 0.5 ms step against the default (trapezoidal) at 0.5 and 0.125 ms on
+    the common realisations (paired changes): is the step effect the integration error?"""
+    common, i12, ii = np.intersect1d(k12, ki, return_indices=True)
+    if len(common) < 2:
+        return
+    a, b, x = x1[i12], x2[i12], xi[ii]
+    n = len(common)
+
+    def ch(u, v):
+        return f"{100 * (v.mean() / u.mean() - 1):+.2f} ± {100 * (v - u).std(ddof=1) / np.sqrt(n) / u.mean():.2f} %"
+    print(f"{name} at 0.5 ms, realisations {common.min()}–{common.max()} ({n}): mean {x.mean():.4f} ± "
+          f"{x.std(ddof=1) / np.sqrt(n):.4f}; against the default at 0.5 ms {ch(a, x)}, at 0.25 ms {ch(b, x)}")
+    c3, j3, jj = np.intersect1d(k3, common, return_indices=True)
+    if len(c3) > 1:
+        u, v = x3[j3], x[np.searchsorted(common, c3)]
+        print(f"  against the default at 0.125 ms ({len(c3)} realisations): "
+              f"{100 * (v.mean() / u.mean() - 1):+.2f} ± {100 * (v - u).std(ddof=1) / np.sqrt(len(c3)) / u.mean():.2f} %")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--n", type=int, default=512, help="realisations per step to run (0: report the merged saves)")
@@ -131,20 +155,31 @@ def main(argv=None) -> int:
     p.add_argument("--chunk", type=int, default=128, help="cars per compiled-loop ensemble")
     p.add_argument("--third", action="store_true",
                    help="run the realisations at the third step only (0.125 ms physics), for the order and limit")
+    p.add_argument("--integrator", help="run the realisations at the 0.5 ms step only, with this MuJoCo integrator "
+                   "(e.g. RK4), against the scenario's (auto: trapezoidal)")
     p.add_argument("--save", help="save this run's per-realisation ratios (.npz)")
     p.add_argument("--merge", nargs="*", default=[], help="earlier saves (.npz, globs) to merge into the report")
     a = p.parse_args(argv)
-    parts, thirds = [], []
+    parts, thirds, others = [], [], []
     for pat in a.merge:
         for f in sorted(glob.glob(pat)):
             z = np.load(f)
             if "x3" in z:
                 thirds.append((z["k"], z["x3"]))
+            elif "xi" in z:
+                others.append((str(z["integrator"]), z["k"], z["xi"]))
             else:
                 parts.append((z["k"], z["x1"], z["x2"]))
     if a.n > 0:
         ks = np.arange(a.k0, a.k0 + a.n)
-        if a.third:
+        if a.integrator:
+            xi, ci = run_ratios(1.0, a.k0, a.n, a.chunk, a.integrator)
+            print(f"cost: {ci:.4f} CPU-s per realisation at 0.5 ms with {a.integrator}")
+            if a.save:
+                Path(a.save).parent.mkdir(parents=True, exist_ok=True)
+                np.savez(a.save, k=ks, xi=xi, integrator=a.integrator)
+            others.append((a.integrator, ks, xi))
+        elif a.third:
             x3, c3 = run_ratios(0.25, a.k0, a.n, a.chunk)
             print(f"cost: {c3:.4f} CPU-s per realisation at 0.125 ms")
             if a.save:
@@ -173,7 +208,14 @@ def main(argv=None) -> int:
     if thirds:
         k3 = np.concatenate([q[0] for q in thirds])
         k3, i3 = np.unique(k3, return_index=True)
-        report_third(ks, x1, x2, k3, np.concatenate([q[1] for q in thirds])[i3])
+        x3 = np.concatenate([q[1] for q in thirds])[i3]
+        report_third(ks, x1, x2, k3, x3)
+    else:
+        k3, x3 = np.array([], int), np.array([])
+    for name in sorted({q[0] for q in others}):
+        ki = np.concatenate([q[1] for q in others if q[0] == name])
+        ki, ii = np.unique(ki, return_index=True)
+        report_integrator(name, ks, x1, x2, k3, x3, ki, np.concatenate([q[2] for q in others if q[0] == name])[ii])
     return 0
 
 
