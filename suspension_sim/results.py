@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import functools
 import platform
+import warnings
 from dataclasses import dataclass, field
 
 import numba
@@ -146,6 +147,10 @@ def _ts_get(self) -> pd.DataFrame:
     if ts is None and d.get("_file") is not None:  # a streamed run: read from its file (not kept)
         return pd.read_parquet(d["_file"])
     if ts is None and d.get("_preview") is not None:  # a streamed run without a file: the preview
+        q = self.info.get("streamed_log", {}).get("preview_every")
+        warnings.warn(f"this run was logged for its metrics only (log_channels='metrics') and streamed: its "
+                      f"timeseries is the preview, every {q}-th log instant; log its channels (log_channels="
+                      f"'all' or a set of names) for the whole time series", stacklevel=2)
         return self.preview_frame()
     if ts is None:
         src = d.get("_src")

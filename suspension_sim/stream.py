@@ -16,7 +16,9 @@ seconds per chunk) is never held whole.  Each full chunk is
 Memory is then the chunk, the preview and the writers' buffers, whatever the duration.  Where the file goes:
 ``sim.stream_paths`` (one path per car; ``suspension-sim run`` points it into the run folder), else a
 temporary file per car that the :class:`~suspension_sim.results.Result` reads on demand and removes when it
-is garbage-collected; a batch that keeps no time series (``log_channels="metrics"``) writes none.
+is garbage-collected (also for a run logging a set of channels: its ``timeseries`` is those channels' whole
+log); a batch that keeps no time series (``log_channels="metrics"``) writes none, and its ``timeseries`` is the
+preview, with a warning.
 """
 from __future__ import annotations
 
@@ -90,7 +92,7 @@ class LogStream:
         self.names = None
         paths = getattr(sim, "stream_paths", None)
         self.temporary = paths is None
-        if paths is None and getattr(sim, "log_channels", "all") == "all":
+        if paths is None and getattr(sim, "log_channels", "all") != "metrics":
             paths = []
             for i in range(self.n):
                 fd, p = tempfile.mkstemp(prefix="suspension_sim_log_", suffix=".parquet")

@@ -118,6 +118,27 @@ def test_streamed_metrics_of_an_ensemble_without_files(monkeypatch):
         assert "actuator_energy_total" in r.metrics
 
 
+def test_a_streamed_run_logging_a_set_of_channels_keeps_their_whole_log(monkeypatch):
+    """log_channels={...}: the time series of those channels, whole, also when the log is streamed (it went to
+    no file and ``timeseries`` silently returned the preview, every q-th instant).  A metrics-only streamed run
+    keeps no time series: its ``timeseries`` is the preview, with a warning."""
+    sc = parse_scenario(QUARTER)
+    _whole(monkeypatch)
+    whole = Simulation([sc], log_channels={"body_acc", "travel"}).run()[0]
+    _chunked(monkeypatch)
+    monkeypatch.setattr("suspension_sim.stream.PREVIEW_MB", 0.001)  # a preview of 1000 of the 4000 rows
+    res = Simulation([sc], log_channels={"body_acc", "travel"}).run()[0]
+    assert res.info["streamed_log"]["chunk_rows"] < 1000 and res.info["streamed_log"]["preview_every"] > 1
+    assert res.timeseries_file is not None
+    for c in ("t", "body_acc", "travel"):
+        np.testing.assert_array_equal(res.ts[c].to_numpy(), whole.ts[c].to_numpy())
+    only = Simulation([sc], log_channels="metrics").run()[0]
+    assert only.timeseries_file is None
+    with pytest.warns(UserWarning, match="preview"):
+        prev = only.ts
+    assert len(prev) < len(whole.ts)  # what the set of channels got before, silently
+
+
 def test_every_streaming_metric_equals_its_one_shot_version_on_one_chunk_and_across_chunks():
     rng = np.random.default_rng(3)
     n, N, dt, sfx = 3, 5003, 0.001, ["_front", "_rear"]
