@@ -179,6 +179,9 @@ class DiscreteMRAC:
     relative-degree-two plant, so its control rings at the Nyquist frequency; κ < 1 removes the
     cancellation and keeps zero steady-state error (the estimator's identity holds for any input).
 
+    ``bias=False`` (the printed φ, which has no constant) zeroes the bias row's regressor entry, initial
+    covariance and covariance addition: its parameter stays at 0 and the law is the printed one.
+
     ``p0_bias``/``q_bias`` give the bias parameter (the operating-point force) its own initial covariance
     and covariance addition, so that it can track load changes quickly while the model parameters adapt
     slowly (less drift when the excitation is poor, e.g. a manoeuvre on a flat road).
@@ -188,8 +191,9 @@ class DiscreteMRAC:
     """
 
     def __init__(self, theta0, m, D, am, p0, q, trace_max, beta_inv_range=(0.2, 5.0), u_max=None,
-                 bias_scale=1000.0, kappa=1.0, p0_bias=None, q_bias=None):
+                 bias_scale=1000.0, kappa=1.0, p0_bias=None, q_bias=None, bias=True):
         self.kappa = kappa
+        self.bias = bool(bias)
         self.m, self.D, self.am = m, D, np.asarray(am, dtype=float)
         theta0 = np.asarray(theta0, dtype=float)
         self.npar = theta0.shape[0]
@@ -204,6 +208,10 @@ class DiscreteMRAC:
         self.P0 = np.diag(d0)
         self.q = np.full(self.npar, float(q))
         self.q[ib] = q if q_bias is None else q_bias
+        if not self.bias:  # the printed φ has no constant: its regressor entry, covariance and Q row are zero, so
+            sc[ib] = 0.0  # the bias parameter stays at 0 (the kernel's layout is unchanged)
+            self.P0[ib, ib] = 0.0
+            self.q[ib] = 0.0
         self.trace_max = trace_max
         bi = slice(self.npar - m, self.npar)
         bi_nom = np.diag(theta0[bi]) / sc[bi]

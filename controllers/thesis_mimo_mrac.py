@@ -28,7 +28,7 @@ Design, following the thesis's steps:
    against the sampling-zero ringing of the pure d-step-ahead law.
 
 The constant c/β0 in Θ is the operating-point force (the thesis's static and manoeuvre loads S(t)): it
-is what removes the braking nose dive.  U_T = u + K0·w + C0·ẇ per corner (nominal road force,
+is what removes the braking nose dive.  It is ours (the printed φ has no constant); ``bias: false`` removes it.  U_T = u + K0·w + C0·ẇ per corner (nominal road force,
 ``road_feedforward``), so the actuators get u = U_T − K0·w − C0·ẇ.
 
 Reference ("two-tier skyhook", Eq. 7.7): the same half car with springs K_m, no passive damper, skyhook
@@ -89,6 +89,9 @@ class MIMOParams(Params):
     kappa: float = Field(1.0, gt=0, le=1, description="control-increment weighting (1 = the thesis; < 1 ours)")
     beta_inv_range: tuple[float, float] = Field((0.2, 5.0), description="allowed (β0)⁻¹ diagonal / nominal")
     road_feedforward: bool = Field(True, description="U_T = u + K0·w + C0·ẇ (see module doc)")
+    bias: bool = Field(True, description="the constant −1 in φ with its parameter (the operating-point force; ours, "
+                       "not in the printed φ); false = the printed regressor, which holds no static or manoeuvre load "
+                       "without an output error")
     probe_amplitude: float = Field(0.0, ge=0, description="closed-loop probing (ours, not the thesis's): a random "
                                    "±amplitude force (N) per actuator, new each control step, added to U and seen "
                                    "by the estimator; 0 = off (the thesis)")
@@ -266,7 +269,7 @@ class MIMOMRAC(Controller):
         self.core = DiscreteMRAC(th0, 2, D, self.am, shared_value(p.p0), shared_value(p.q), shared_value(p.trace_max),
                                  beta_inv_range=tuple(np.asarray(p.beta_inv_range, dtype=float).reshape(-1)[:2]),
                                  kappa=shared_value(p.kappa), p0_bias=shared_value(p.p0_bias),
-                                 q_bias=shared_value(p.q_bias))
+                                 q_bias=shared_value(p.q_bias), bias=bool(shared_value(p.bias)))
         self.K0, self.C0 = K, C
         if not isinstance(p.estimator, str):
             from suspension_sim.errors import ScenarioError

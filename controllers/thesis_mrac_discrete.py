@@ -70,6 +70,9 @@ class MRACDiscreteParams(Params):
                          "d-step-ahead law (Eq. 4.55); κ < 1 stops the cancellation of the sampling zero near z = −1 "
                          "(see thesis_common.DiscreteMRAC)")
     road_feedforward: bool = Field(True, description="U_T = u + K*·w + C0·ẇ (see module doc)")
+    bias: bool = Field(True, description="the constant −1 in φ with its parameter β0⁻¹c (the operating-point force u0; "
+                       "ours, not in the printed φ); false = the printed regressor, which holds no static load without "
+                       "a level error")
 
 
 # ---- the law: one control step for one car (suspension_sim.compiled) ---------------------------------------
@@ -146,7 +149,8 @@ class MRACDiscrete(Controller):
         D, alpha, beta = predictor(A, B, self.am, int(shared_value(p.delay_steps)))
         self.D = D
         self.core = DiscreteMRAC(theta_from_predictor(alpha, beta), 1, D, self.am, shared_value(p.p0),
-                                 shared_value(p.q), shared_value(p.trace_max), u_max=None, kappa=shared_value(p.kappa))
+                                 shared_value(p.q), shared_value(p.trace_max), u_max=None, kappa=shared_value(p.kappa),
+                                 bias=bool(shared_value(p.bias)))
         # the reference, driven by the readings up to k−1 (ref_x) and by w[k] (the target D samples ahead)
         self.ref = ZOHFilter(np.array([[0.0, 1.0], [-Km / Mm, -Cm / Mm]]), np.array([[0.0], [Km / Mm]]), np.eye(2),
                              np.zeros((2, 1)), h)

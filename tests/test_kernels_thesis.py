@@ -97,9 +97,9 @@ def drive(ctrl, n_steps, scales, seed=0, every=None):
     return out
 
 
-def compare(run, refs, rtol):
+def compare(run, refs, rtol, zero=()):
     """Commands and signals of ``run`` against the per-car references (each a list of (u, {signal})), to
-    ``rtol`` of each quantity's largest magnitude over the run."""
+    ``rtol`` of each quantity's largest magnitude over the run; the signals in ``zero`` must be exactly 0 in both."""
     worst = {}
     for i, ref in enumerate(refs):
         for (_, _, u, sig), (ur, sr) in zip(run, ref):
@@ -109,7 +109,7 @@ def compare(run, refs, rtol):
                 worst[k] = (max(d, float(np.max(np.abs(a - b)))), max(m, float(np.max(np.abs(b)))))
     assert set(worst) == {"u"} | set(run[0][3]), set(worst) ^ ({"u"} | set(run[0][3]))
     for k, (d, m) in worst.items():
-        assert m > 0 and d <= rtol * m, (k, d, m)
+        assert (m > 0 or k in zero) and d <= rtol * m, (k, d, m)
 
 
 # --- Ch. 3: continuous MRAC ---------------------------------------------------------------------------------
@@ -326,23 +326,26 @@ def mimo_reference(c, run, i, seen=None):
     return out
 
 
-@pytest.mark.parametrize("delay", [0, 1])
-def test_mimo_mrac_law(request, delay):
+@pytest.mark.parametrize("delay, bias", [(0, True), (1, True), (0, False)])
+def test_mimo_mrac_law(request, delay, bias):
     """Thesis Ch. 7 law (matrix least squares with one covariance, (β0)⁻¹ projection engaged) for two
-    half cars, without and with one sample of loop delay; with the probing of issue 12 (ours) on, ±50 N."""
+    half cars, without and with one sample of loop delay; with the probing of issue 12 (ours) on, ±50 N; and with
+    the printed regressor (bias: false), whose bias parameter stays 0."""
     def edit(raw):
         raw["sensors"] = [{"type": s["type"]} for s in raw["sensors"]]
         # κ = 0.2 (ours; the scenario default is the printed κ = 1): the κ < 1 blend is the branch to check, and
         # with κ = 1 the driven estimates grow to 1e5 N, where round-off no longer meets 1e-8
         raw["controller"]["params"].update(delay_steps=delay, beta_inv_range=[0.95, 1.05], probe_amplitude=50.0,
-                                           probe_seed=12345, kappa=0.2)
+                                           probe_seed=12345, kappa=0.2, bias=bias)
 
     c = controller(request.config.rootpath, "thesis_ch7_braking", edit)
     scales = {"body_pos": 0.003, "road": 0.003, "road_vel": 0.02}
     run = drive(c, 300, scales)
     seen = {}
-    compare(run, [mimo_reference(c, run, i, seen) for i in range(N_CARS)], 1e-8)
+    compare(run, [mimo_reference(c, run, i, seen) for i in range(N_CARS)], 1e-8, zero=() if bias else ("bias",))
     assert seen.get("projected"), seen
+    b = np.array([sig["bias"] for *_, sig in run])
+    assert (np.max(np.abs(b)) == 0.0) == (not bias), np.max(np.abs(b))
 
 
 def test_discrete_design_predictor_identity(request):

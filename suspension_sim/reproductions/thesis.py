@@ -641,13 +641,24 @@ def ch4_load_step(ctx) -> ItemOutput:
            # statistics of the distribution less sensitive to its tails: medians and the fraction past the stops
            "q_ensemble_median_level": (mL[0], 0.01, mL[1]), "q_ensemble_median_force": (mF[0], 10.0, mF[1]),
            "q_ensemble_stops_fraction": (eB[0], 0.05, eB[1])}
+    if "mrac_no_bias" in ts:  # the printed φ (no constant −1): nothing but an output error carries the load
+        nb = "mrac_no_bias"
+        claims.append(Claim(
+            "the printed law with the printed regressor (`mrac_no_bias`: κ = 1, Q = 0, no bias parameter) holds the "
+            "level (30–40 s)", "maintains the static level, ≈ 1500 N (Figs. 4.4, 4.8)",
+            f"level {z[nb] * 100:.1f} cm, force {F[nb]:.0f} N, following {fol[nb] * 1000:.1f} mm; with our bias "
+            f"(`mrac`) {z['mrac'] * 100:.1f} cm, {F['mrac']:.0f} N; adaptation off {z['mrac_off'] * 100:.1f} cm",
+            "reproduced" if abs(z[nb]) < 0.02 and abs(F[nb] - 1471) < 200 else
+            "partly" if abs(z[nb]) < 0.5 * abs(z["mrac_off"]) else "not",
+            "without the constant the static force must come from Θᵀφ's output terms, i.e. from a level error"))
+        key.update({"no_bias_level": (z[nb], 0.01), "no_bias_force": (F[nb], 10.0)})
     notes = [HALF_NOTE,
              "Literal first: the scenario default `mrac` is the law as printed, the d-step-ahead control of Eq. 4.55 "
              "(κ = 1) with the RLS of Eq. 4.56 at Q = 0.  Eq. 4.56 prints a covariance addition 0 ≤ Q < ∞ whose value the "
              "thesis never gives (its text says the addition keeps P high for fast re-adaptation), so Q = 0 is the "
              "printed law at the bottom of its range and Q = 1e-4 per step is our value (`mrac_kappa_q`); κ < 1 is ours.  "
              "The bias parameter (the operating-point force u0 of the linearisation, Eq. 4.7) is our reading and is in "
-             "every variant.",
+             "every variant but `mrac_no_bias` (the printed regressor, controller switch bias: false).",
              f"Ensemble (table): realisation k scales the first sine amplitude by 1 + k·{CH4_PERTURBATION:g} "
              f"(k = 0 … {CH4_REALISATIONS - 1}: ≤ {(CH4_REALISATIONS - 1) * CH4_PERTURBATION * 0.02 * 1e6:.0f} µm); the "
              f"realisations run to {CH4_ENSEMBLE_S:g} s, the end of the load step (every number of the table is read "
@@ -793,7 +804,7 @@ def polarity_claim(quantity, thesis, a, when_a, b, when_b) -> Claim:
 PRINTED_CH7 = "the thesis's law as printed (scenario default `mimo_mrac_thesis`: the pure d-step-ahead control, κ = 1)"
 
 
-def _only_printed_diverge(dv, allowed=("mimo_mrac_thesis", "mimo_fixed_thesis")):
+def _only_printed_diverge(dv, allowed=("mimo_mrac_thesis", "mimo_fixed_thesis", "mimo_mrac_thesis_no_bias")):
     """Re-raise a divergence stop of any variant but the printed laws' (their running away is a result)."""
     for k, e_ in dv.items():
         if k not in allowed:
@@ -837,6 +848,23 @@ def ch7_braking(ctx) -> ItemOutput:
         claims.append(Claim(f"{PRINTED_CH7} eliminates the dive", "dive \"mostly eliminated\"", printed, ok_p,
                             "the rows below are our κ = 0.2 (`mimo_mrac` and the other variants): the κ = 1 law "
                             "cancels the sampling zero near z = −1 and rings at the Nyquist frequency"))
+    nbv = [k for k in ("mimo_mrac_no_bias", "mimo_mrac_thesis_no_bias") if k in ts or k in dv]
+    if nbv:  # the printed regressor (no constant −1): no parameter carries the manoeuvre moment
+        def nb_text(k):
+            if k in dv:
+                return f"`{k}` diverges at {dv[k].time:.2f} s"
+            return (f"`{k}` peak |pitch| {pk[k]:.2f}°, 4–9 s max "
+                    f"{np.degrees(np.max(np.abs(ts[k].pitch.to_numpy()[win(ts[k], 4, 9)]))):.2f}°")
+        ok_nb = "mimo_mrac_no_bias" in ts and pk["mimo_mrac_no_bias"] < 0.2 * pk["passive"]
+        claims.append(Claim(
+            "without the bias parameter (the printed φ, `bias: false`): κ = 0.2 (`mimo_mrac_no_bias`) and κ = 1 "
+            "(`mimo_mrac_thesis_no_bias`) eliminate the dive", "dive \"mostly eliminated\"",
+            "; ".join(nb_text(k) for k in nbv) + f"; with our bias (`mimo_mrac`) {pk['mimo_mrac']:.2f}°, passive "
+            f"{pk['passive']:.2f}°", "reproduced" if ok_nb else "not",
+            "our bias (the operating-point force) carries the manoeuvre moment; without it the κ = 0.2 blend (an "
+            "integrator on U) still holds the squat, but the loop bursts after the braking; κ = 1 runs away"))
+        if "mimo_mrac_no_bias" in ts:
+            key["no_bias_pitch_deg"] = (pk["mimo_mrac_no_bias"], 0.1)
     claims += [
         Claim("MIMO MRAC (ours: κ = 0.2) eliminates the dive", "dive \"mostly eliminated\"",
               f"peak |pitch| {pk['mimo_mrac']:.2f}° vs passive {pk['passive']:.2f}° "
@@ -985,6 +1013,16 @@ def ch7_road(ctx) -> ItemOutput:
             or e["mimo_mrac_thesis"]["body_z"] > 0.2 * e["passive"]["body_z"] else "reproduced",
             "the pure d-step-ahead law cancels the sampling zero near z = −1 (thesis_common.DiscreteMRAC); the other "
             "rows are our κ = 0.2"))
+    if "mimo_mrac_no_bias" in ts:  # the printed regressor (no constant −1), κ = 0.2
+        nb = "mimo_mrac_no_bias"
+        claims.append(Claim(
+            "without the bias parameter (the printed φ, `mimo_mrac_no_bias`, κ = 0.2): bounce / pitch error 4–20 s, "
+            "dive 40–43 s", "follows; dive removed",
+            f"{e[nb]['body_z'] * 1000:.2f} mm, {deg(e[nb]['pitch']):.3f}°, dive {dive[nb]:.2f}° (with our bias "
+            f"{e['mimo_mrac']['body_z'] * 1000:.2f} mm, {deg(e['mimo_mrac']['pitch']):.3f}°, {dive['mimo_mrac']:.2f}°)",
+            "reproduced" if (e[nb]["body_z"] < 0.2 * e["passive"]["body_z"] and dive[nb] < 0.2 * dive["passive"])
+            else "not"))
+        key.update({"no_bias_bounce_err": (e[nb]["body_z"], 1e-3), "no_bias_dive_deg": (dive[nb], 0.1)})
     if "wrong_design" in ts:
         # errors to the common reference (the wrong design keeps the thesis's reference masses, ref_*)
         wins = ((0, 4), (4, 20), (20, 40), (44, 60))
@@ -1107,7 +1145,7 @@ def ch7_dirt(ctx) -> ItemOutput:
     div = {}  # the probing IV variant may run away (page), and the printed κ = 1 law (a result)
     res = run_each(ctx, ctx.variants("thesis_ch7_dirt"), "thesis_ch7_dirt", diverged=div)
     for k, e_ in div.items():
-        if "probe" not in k and k != "mimo_mrac_thesis":
+        if "probe" not in k and k not in ("mimo_mrac_thesis", "mimo_mrac_no_bias"):
             raise e_
     ts = {k: r.ts for k, r in res.items()}
     m = ts["mimo_mrac"]
@@ -1154,6 +1192,16 @@ def ch7_dirt(ctx) -> ItemOutput:
             pkey["printed_bounce_err"] = (ep_, 1e-3)
         claims.append(Claim(PRINTED_CH7, "adapts within 4 s, follows closely throughout (Fig. 7.8)", got_p, ok_p,
                             "the rows below are our κ = 0.2"))
+    if "mimo_mrac_no_bias" in ts or "mimo_mrac_no_bias" in div:
+        if "mimo_mrac_no_bias" in div:
+            got_nb = f"diverges at {div['mimo_mrac_no_bias'].time:.2f} s"
+        else:
+            e_nb = _err(ts["mimo_mrac_no_bias"], ref, "body_z", 4, 60)
+            got_nb = f"bounce error {e_nb * 1000:.1f} mm (with our bias {e['mimo_mrac']['body_z'] * 1000:.1f} mm)"
+            pkey["no_bias_bounce_err"] = (e_nb, 1e-3)
+        claims.append(Claim("without the bias parameter (the printed φ, `mimo_mrac_no_bias`, κ = 0.2), 4–60 s",
+                            "follows closely", got_nb, "not" if "mimo_mrac_no_bias" in div or e_nb > 0.5 * size
+                            else "reproduced"))
     claims += [
         Claim("bounce follows the reference from 4 s on (RMS(x_b − x_b,ref), 4–60 s), thesis tuning of Ch. 7 (ours: κ = 0.2)",
               "adapts within 4 s, follows closely throughout (Fig. 7.8)",
