@@ -95,6 +95,19 @@ def test_resample_of_a_record_with_lost_rows_keeps_the_measured_samples(tmp_path
     assert any("6 missing rows" in x for x in rec.notes), rec.notes
 
 
+def test_resample_refuses_a_gap_longer_than_the_record(tmp_path):
+    """A clock jump (or two records joined) in a 1 kHz record: filling it on the record's own step would make
+    rows without bound (a 1e6 s jump: 10⁹ rows); a one-line error names the gap instead."""
+    n = 400
+    t = np.arange(n) / 1000.0
+    t[200:] += 1e6
+    df = pd.DataFrame({"time": t, "road": 0.01 * np.sin(3 * t), "body_acc": np.ones(n)})
+    with pytest.raises(ScenarioError) as err:
+        load_record(_csv(tmp_path, df), "quarter_car", resample=True)
+    msg = str(err.value)
+    assert "gap of 1e+06 s after row 200" in msg and "\n" not in msg
+
+
 def test_map_scale_unknown_and_mismatched(tmp_path):
     df = pd.DataFrame({"zr_mm": 10 * np.sin(np.arange(100) / 10), "acc": np.ones(100)})
     p = _csv(tmp_path, df)

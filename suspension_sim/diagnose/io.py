@@ -264,6 +264,10 @@ def load_record(paths, kind: str, mapping: dict[str, tuple[str, float]] | None =
             # record's span over fewer rows) would put every grid point between two samples, and the linear
             # interpolation would average the noise down (a 1 kHz record with 6 rows lost: 0.82× the noise)
             n_new = int(round((tcol[-1] - tcol[0]) / step)) + 1
+            if n_new > 2 * len(tcol):  # a gap longer than the record (a clock jump, two records joined)
+                j = int(np.argmax(d))
+                raise ScenarioError(f"resample: a gap of {d[j]:.6g} s after row {j + 1} would fill {n_new - len(tcol)} "
+                                    f"rows, more than the {len(tcol)} measured; cut the record at the gap", source=src)
             tg = tcol[0] + np.arange(n_new) * step
             idx = np.round((tcol - tcol[0]) / step).astype(int)
             gap = np.ones(n_new, bool)
