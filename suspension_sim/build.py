@@ -475,9 +475,13 @@ class System:
         """Every time-varying parameter at time ``t`` (both loops call this at each control instant)."""
         for var in self.variations:
             var.apply(t)
+        self._masses_set()
+
+    def _masses_set(self) -> None:
+        """After the model's varying masses were written (a variation applied or restored): MuJoCo precomputes the
+        mass matrix of simple (slide-joint) bodies (dof_M0) in mj_setConst, without which a mass change would
+        alter gravity but not inertia; then the effects' effective masses follow."""
         if self._const_scratch is not None:
-            # MuJoCo precomputes the mass matrix of simple (slide-joint) bodies (dof_M0) in mj_setConst: without
-            # this a mass change would alter gravity but not inertia
             mujoco.mj_setConst(self.plant.model, self._const_scratch)
             self.update_effective_masses()
 
@@ -500,8 +504,7 @@ class System:
             if eff.ctx.effective_mass is None:
                 continue
             eff.ctx.effective_mass = self.tendon_effective_mass(tendons)
-            if type(eff).kernel is not None and getattr(eff, "_kd", None) is not None:
-                eff._kd[0][...] = eff.parameter_rows()
+            eff.refresh_parameters()
 
     def road_preview(self, t, dist):
         out = np.empty((self.plant.n, self.plant.nc))
@@ -528,9 +531,7 @@ class System:
         self.controller.reset()
         for var in self.variations:
             var.restore()  # the model and the effects restart from their nominal parameters
-        if self._const_scratch is not None:  # and the mass matrix and the effects' effective masses with them
-            mujoco.mj_setConst(self.plant.model, self._const_scratch)
-            self.update_effective_masses()
+        self._masses_set()  # and the mass matrix and the effects' effective masses with them
         for e, _ in self.effects:
             e.reset()
         for j, ch in enumerate(self.sensors):

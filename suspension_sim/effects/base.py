@@ -121,6 +121,11 @@ class Effect(KernelState):
         rebuilt from :meth:`kernel_data` and written into the running ``p`` in place (the state ``st`` is kept),
         so the next force of either loop uses the new value; a Python effect reads ``self.p`` itself."""
         setattr(self.p, name, value)
+        self.refresh_parameters()
+
+    def refresh_parameters(self) -> None:
+        """Write the parameter rows (:meth:`parameter_rows`, from ``self.p`` and ``self.ctx``) into the running
+        kernel's ``p`` in place, after a parameter or the context (e.g. the effective mass) changed during a run."""
         if type(self).kernel is not None and getattr(self, "_kd", None) is not None:
             self._kd[0][...] = self.parameter_rows()
 
