@@ -804,19 +804,10 @@ def _place_road_steps(h, zt, zx, tc_rate, v, rows, wheel, z, zd):  # pragma: no 
 @numba.njit(cache=True, nogil=True)
 def _place_road(h, zt, zx, tc_rate, v, rows, cars, corners, z, zd):  # pragma: no cover - compiled
     """z[j, car, corner] = h[row, j] and zd[j, car, corner] = zt[row, j+1]·tc_rate[j] + zx[row, j+1]·v[j] for
-    every wheel (row, car, corner): step by step when the road's rows lie side by side in memory (a road
-    computed step-major), else in blocks of 64 steps (the step-major writes of a block stay in cache)."""
+    every wheel (row, car, corner), in blocks of 64 steps (the step-major writes of a block stay in cache).  A road
+    computed step-major goes to :func:`_place_road_steps` instead."""
     n_w = rows.shape[0]
     L2 = z.shape[0]
-    if h.strides[0] < h.strides[1] and zt.strides[0] < zt.strides[1]:
-        for j in range(L2):
-            for w in range(n_w):
-                z[j, cars[w], corners[w]] = h[rows[w], j]
-            if j < L2 - 2:
-                for w in range(n_w):
-                    r = rows[w]
-                    zd[j, cars[w], corners[w]] = zt[r, j + 1] * tc_rate[j] + zx[r, j + 1] * v[j]
-        return
     B = 64
     for j0 in range(0, L2, B):
         j1 = min(j0 + B, L2)
