@@ -37,7 +37,7 @@ import numpy as np
 
 from .. import buffers
 
-TEMPLATE_VERSION = 20
+TEMPLATE_VERSION = 21
 
 # PlantState fields a compiled sensor may read (Sensor.kernel_field), by code
 FIELDS = ("body_pos", "body_vel", "body_acc", "corner_body_pos", "corner_body_vel", "corner_body_acc",
@@ -194,6 +194,12 @@ def generate_source(effects, actuator, controller, sensors=(), shape=None) -> st
             f"                    for jj in range(e{k}_lc.shape[1]):\n"
             f"                        Lr[e{k}_lc[q, jj]] = e{k}_st[i, jj, e{k}_sigj[q]]\n")
     sensor_block = "".join(_sensor_code(sc, f, simple) for sc, (f, simple) in enumerate(sensors))
+    acc_pass = _acc_code(" " * 20)
+
+    def acc_flush(ind):  # the last step's acceleration, before the loop returns
+        return (f"{ind}if acc_due:\n{ind}    for i in range(n):\n" + _acc_code(ind + " " * 8)
+                + f"{ind}    acc_due = False\n")
+
     ctrl_block = ("                ctrl_kernel(t, row(y, i), row(c_p, c_pi[i]), row(c_st, i), row(cmd, i))\n" if controller is not None
                   else "")
     acc_read = any(f in (FIELDS.index("body_acc"), FIELDS.index("corner_body_acc"), FIELDS.index("wheel_acc"))
@@ -279,11 +285,17 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
     k = k0
     skip = resume == 1
     pre_done = resume == 2
+    # the acceleration of a step that needs it (need_acc) is computed, and logged, at the start of the next
+    # step's pass over the cars (before mj_step1: qvel is the step's result, untouched) or before the loop
+    # returns, instead of in a pass of its own after mj_step2 (RK4: after its step, as before)
+    acc_due = False
+    acc_log = False
+    acc_jl = 0
     while k < k1:
         t = k * dt
         jr = k - k_chunk0
         if var_hook and not skip and not pre_done and k % sub == 0:
-            return PRE + k
+{acc_flush(" " * 12)}            return PRE + k
         pre_done = False
         ctrl_now = False
         kc = 0
@@ -297,7 +309,8 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                     if roll_v[i] >= 0:
                         qfrc[roll_v[i]] += man_r[jr, i]
             for i in range(n):
-                for c in range(nc):
+                if acc_due:
+{acc_pass}                for c in range(nc):
                     z = road_z[jr, i, c]
                     if road_dof:
                         qpos[road_q[i, c]] = z
@@ -308,6 +321,7 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                     else:  # the road as the tire spring's rest length (Plant.place_road)
                         lsp[tire_t[i, c], 0] = rest0[i, c, 0] + z
                         lsp[tire_t[i, c], 1] = rest0[i, c, 1] + z
+            acc_due = False
             mj_step1(m_addr, d_addr)
             if k % sub == 0:
                 bad = False
@@ -469,26 +483,44 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
         else:
             mj_step2(m_addr, d_addr)
         if need_acc:
-            for i in range(n):
-                if not rk4:
-                    for b in range(nb):
-                        acc[body_v[i, b]] = (qvel[body_v[i, b]] - v_before[body_v[i, b]]) / dt
-                    if has_tire:
-                        for c in range(nc):
-                            acc[wheel_v[i, c]] = (qvel[wheel_v[i, c]] - v_before[wheel_v[i, c]]) / dt
+            if rk4:
                 if logw:
-                    Lr = row(row(L, jl), i)
-                    for b in range(nb):
-                        if LC[2, b] >= 0:
-                            Lr[LC[2, b]] = acc[body_v[i, b]]
-                    if has_tire:
-                        for c in range(nc):
-                            if LC[14, c] >= 0:
-                                Lr[LC[14, c]] = acc[wheel_v[i, c]]
+                    for i in range(n):
+                        Lr = row(row(L, jl), i)
+                        for b in range(nb):
+                            if LC[2, b] >= 0:
+                                Lr[LC[2, b]] = acc[body_v[i, b]]
+                        if has_tire:
+                            for c in range(nc):
+                                if LC[14, c] >= 0:
+                                    Lr[LC[14, c]] = acc[wheel_v[i, c]]
+            else:  # computed and logged at the start of the next step's pass, or before returning
+                acc_due = True
+                acc_log = logw
+                acc_jl = jl
         k += 1
-    return k1
+{acc_flush(" " * 4)}    return k1
 '''
     return "\n".join(imp) + "\n" + body
+
+
+def _acc_code(ind: str) -> str:
+    """The loop's lines for car i's acceleration of the last step, (qvel - v_before) / dt on its body and wheel
+    dofs, and its log entries in row acc_jl when that step logged (acc_log)."""
+    return (f"{ind}for b in range(nb):\n"
+            f"{ind}    acc[body_v[i, b]] = (qvel[body_v[i, b]] - v_before[body_v[i, b]]) / dt\n"
+            f"{ind}if has_tire:\n"
+            f"{ind}    for c in range(nc):\n"
+            f"{ind}        acc[wheel_v[i, c]] = (qvel[wheel_v[i, c]] - v_before[wheel_v[i, c]]) / dt\n"
+            f"{ind}if acc_log:\n"
+            f"{ind}    Lr = row(row(L, acc_jl), i)\n"
+            f"{ind}    for b in range(nb):\n"
+            f"{ind}        if LC[2, b] >= 0:\n"
+            f"{ind}            Lr[LC[2, b]] = acc[body_v[i, b]]\n"
+            f"{ind}    if has_tire:\n"
+            f"{ind}        for c in range(nc):\n"
+            f"{ind}            if LC[14, c] >= 0:\n"
+            f"{ind}                Lr[LC[14, c]] = acc[wheel_v[i, c]]\n")
 
 
 def inlined(kernel):
