@@ -1,14 +1,16 @@
-"""Step halving of Fallah's near-sgn (a = 1000 s/m) 5 m bump, ideal-sensor heave ratio, on a large ensemble.
+"""Step halving of Fallah's near-sgn (a = 1000 s/m) rows on a large ensemble (default: the 5 m bump, ideal sensors).
 
 The key number ``heave_ratio[5 m bump, a = 1000,fallah]`` of ``suspension-sim reproduce fallah`` (item
 ``bang_bang``) is a mean over realisations of a chaotic closed loop: realisation k runs the bump height
 × (1 + k·1e-6) and the sim seed + k (``reproductions/fallah.py``, :func:`bb_realisations`).  Its heave ratio is the
-whole-run RMS heave acceleration over the passive car's on the same bump, at the same step.  The item measures 128
-realisations per step, too few to decide issue 12's 2 % rule for this row (page:
-docs/reproductions/fallah_sorniotti_gruber.md, "Step halving").  This script runs realisations k0 … k0 + n − 1 of
-that very row, built by the item's own code path (``Context.variants`` of ``fallah_bump`` with the item's
-overrides, the control step held at 1 ms), at the scenario step (0.5 ms physics) and at half of it (0.25 ms),
-many cars per compiled-loop ensemble, and prints
+whole-run RMS heave acceleration over the passive car's on the same bump, at the same step.  With 128 realisations
+per step the item could not decide issue 12's 2 % rule for this row (page:
+docs/reproductions/fallah_sorniotti_gruber.md, "Step halving"); this script decided it (not converged at the
+scenario's 0.5 ms physics step, converged from 0.25 ms), which is why the item now runs the near-sgn rows at a
+0.25 ms physics step.  It runs realisations k0 … k0 + n − 1 of a row (``--row``, ``--sensors``), built by the item's
+own code path (``bb_scenarios``, ``bb_realisation``; the control step held at 1 ms) but at physics steps set here
+explicitly, whatever step the item uses: 0.5 ms and 0.25 ms (``--third``: 0.125 ms; ``--integrator RK4``: RK4 at
+0.5 ms), many cars per compiled-loop ensemble, and prints
 
 - each step's mean ± standard error;
 - the change of the mean on halving, with the unpaired standard error (the item's estimator, independent
@@ -17,10 +19,11 @@ many cars per compiled-loop ensemble, and prints
 - the verdict of the item's rule (:func:`~suspension_sim.reproductions.framework.conv_status`: converged when
   change + 1 s.e. < 2 %, undecided when the bound lies within 1 s.e.).
 
-The per-realisation ratios are saved (``--save``, .npz) and merged with earlier saves (``--merge``), so an
-ensemble can be grown in pieces.  Cost is printed as CPU seconds per realisation at each step.
+The per-realisation ratios are saved (``--save``, .npz, with the row) and merged with earlier saves of the same
+row (``--merge``), so an ensemble can be grown in pieces.  Cost is printed as CPU seconds per realisation at each step.
 
 Run:  nice -n 10 python benchmarks/fallah_near_sgn_ensemble.py --n 512 [--k0 0] [--chunk 128]
+      [--row "1 m × 15 cm bump, a = 1000"] [--sensors noisy]
       [--save runs/fallah_ens_0.npz] [--merge runs/fallah_ens_*.npz]
       nice -n 10 python benchmarks/fallah_near_sgn_ensemble.py --third --n 512 --save runs/fallah_ens3_0.npz
       nice -n 10 python benchmarks/fallah_near_sgn_ensemble.py --integrator RK4 --n 512 --save runs/fallah_ensi_0.npz
@@ -40,18 +43,23 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 LABEL = "5 m bump, a = 1000"
+SCENARIO_DT = 0.0005  # fallah_bump's physics step; the steps below are fractions of it (0.5, 0.25, 0.125 ms),
+# set explicitly, whatever physics step the item itself runs the row at
 
 
-def build(step_factor: float, k0: int, n: int, integrator: str | None = None):
-    """The passive reference and realisations k0 … k0+n−1 of the row, built by the item's own functions."""
+def build(step_factor: float, k0: int, n: int, integrator: str | None = None, label: str = LABEL,
+          variant: str = "fallah"):
+    """The passive reference and realisations k0 … k0+n−1 of the row, built by the item's own functions, at the
+    physics step SCENARIO_DT × step_factor (the control step held at the item's 1 ms)."""
     from suspension_sim.reproductions.fallah import bb_realisation, bb_scenarios
     from suspension_sim.reproductions.framework import Context
 
-    v = bb_scenarios(Context(step_factor), LABEL, only=["passive", "fallah"])
-    if integrator:
-        for sc in v.values():
+    v = bb_scenarios(Context(1.0), label, only=["passive", variant])
+    for sc in v.values():
+        sc.sim.dt = SCENARIO_DT * step_factor
+        if integrator:
             sc.sim.integrator = integrator
-    return v["passive"], [bb_realisation(v["fallah"], j) for j in range(k0, k0 + n)]
+    return v["passive"], [bb_realisation(v[variant], j) for j in range(k0, k0 + n)]
 
 
 def rms(x):
@@ -59,10 +67,11 @@ def rms(x):
     return float(np.sqrt(np.mean(x * x)))
 
 
-def run_ratios(step_factor: float, k0: int, n: int, chunk: int, integrator: str | None = None):
+def run_ratios(step_factor: float, k0: int, n: int, chunk: int, integrator: str | None = None,
+               label: str = LABEL, variant: str = "fallah"):
     from suspension_sim.simulation import Simulation
 
-    passive, scs = build(step_factor, k0, n, integrator)
+    passive, scs = build(step_factor, k0, n, integrator, label, variant)
     pa = rms(Simulation([passive]).run()[0].ts.body_acc)
     out = []
     c0 = time.process_time()
@@ -157,13 +166,28 @@ def main(argv=None) -> int:
                    help="run the realisations at the third step only (0.125 ms physics), for the order and limit")
     p.add_argument("--integrator", help="run the realisations at the 0.5 ms step only, with this MuJoCo integrator "
                    "(e.g. RK4), against the scenario's (auto: trapezoidal)")
+    p.add_argument("--row", default=LABEL, help=f"the near-sgn row of BB_CASES (default: {LABEL})")
+    p.add_argument("--sensors", choices=["ideal", "noisy"], default="ideal",
+                   help="ideal (variant fallah) or noisy (variant fallah_noisy) sensors")
     p.add_argument("--save", help="save this run's per-realisation ratios (.npz)")
     p.add_argument("--merge", nargs="*", default=[], help="earlier saves (.npz, globs) to merge into the report")
     a = p.parse_args(argv)
+    from suspension_sim.reproductions.fallah import BB_CASES
+    if a.row not in BB_CASES:
+        print(f"--row: unknown row {a.row!r}; rows: {', '.join(BB_CASES)}", file=sys.stderr)
+        return 2
+    variant = "fallah" if a.sensors == "ideal" else "fallah_noisy"
+    row = f"{a.row}|{variant}"
+    print(f"row: {row}")
+    rr = dict(label=a.row, variant=variant)
     parts, thirds, others = [], [], []
     for pat in a.merge:
         for f in sorted(glob.glob(pat)):
             z = np.load(f)
+            zrow = str(z["row"]) if "row" in z else f"{LABEL}|fallah"  # saves before --row were this row
+            if zrow != row:
+                print(f"(skipped {f}: row {zrow})")
+                continue
             if "x3" in z:
                 thirds.append((z["k"], z["x3"]))
             elif "xi" in z:
@@ -173,26 +197,26 @@ def main(argv=None) -> int:
     if a.n > 0:
         ks = np.arange(a.k0, a.k0 + a.n)
         if a.integrator:
-            xi, ci = run_ratios(1.0, a.k0, a.n, a.chunk, a.integrator)
+            xi, ci = run_ratios(1.0, a.k0, a.n, a.chunk, a.integrator, **rr)
             print(f"cost: {ci:.4f} CPU-s per realisation at 0.5 ms with {a.integrator}")
             if a.save:
                 Path(a.save).parent.mkdir(parents=True, exist_ok=True)
-                np.savez(a.save, k=ks, xi=xi, integrator=a.integrator)
+                np.savez(a.save, k=ks, xi=xi, integrator=a.integrator, row=row)
             others.append((a.integrator, ks, xi))
         elif a.third:
-            x3, c3 = run_ratios(0.25, a.k0, a.n, a.chunk)
+            x3, c3 = run_ratios(0.25, a.k0, a.n, a.chunk, **rr)
             print(f"cost: {c3:.4f} CPU-s per realisation at 0.125 ms")
             if a.save:
                 Path(a.save).parent.mkdir(parents=True, exist_ok=True)
-                np.savez(a.save, k=ks, x3=x3)
+                np.savez(a.save, k=ks, x3=x3, row=row)
             thirds.append((ks, x3))
         else:
-            x1, c1 = run_ratios(1.0, a.k0, a.n, a.chunk)
-            x2, c2 = run_ratios(0.5, a.k0, a.n, a.chunk)
+            x1, c1 = run_ratios(1.0, a.k0, a.n, a.chunk, **rr)
+            x2, c2 = run_ratios(0.5, a.k0, a.n, a.chunk, **rr)
             print(f"cost: {c1:.4f} CPU-s per realisation at 0.5 ms, {c2:.4f} at 0.25 ms")
             if a.save:
                 Path(a.save).parent.mkdir(parents=True, exist_ok=True)
-                np.savez(a.save, k=ks, x1=x1, x2=x2)
+                np.savez(a.save, k=ks, x1=x1, x2=x2, row=row)
             parts.append((ks, x1, x2))
     if not parts:
         print("nothing to report: give --n > 0 or --merge files with both steps", file=sys.stderr)

@@ -444,7 +444,7 @@ def ch4_load_step(ctx) -> ItemOutput:
     fol = {k: rms((t.body_z.to_numpy() - own_ref(k))[win(t, 1.5, 20)]) for k, t in ts.items()}
     stuck = {k: mean(t, "effect.coulomb_friction.stuck.0", 1.5, 20) for k, t in ts.items()}
     ref_size = float(np.std(ref[win(m, 1.5, 20)]))
-    after = {k: [mean(ts[k], "body_z", 20 + 2 * i, 22 + 2 * i) for i in range(5)] for k in ("mrac", "mrac_bias")}
+    after = {k: [mean(ts[k], "body_z", 20 + 2 * i, 22 + 2 * i) for i in range(5)] for k in ("mrac", "mrac_kappa_q")}
 
     def start(k):  # the first 1.5 s: peak force and mean |ΔU| per 0.01 s control step
         f_ = ts[k].actuator_force.to_numpy()[win(ts[k], 0, 1.5)]
@@ -454,9 +454,8 @@ def ch4_load_step(ctx) -> ItemOutput:
         return float(np.mean(np.abs(np.diff(ts[k].actuator_force.to_numpy()[win(ts[k], 1.5, 60)]))))
 
     # the estimates from the wrong design: distance (scaled by the nominal |Θ| per row, bias row by 1000 N) between
-    # the wrong start's Θ and the right start's Θ at the same instant, with the bias row left out; the wrong design
-    # carries our bias, so its right start is `mrac_bias`
-    th_r, th_w, th_off = _ch4_theta(ts["mrac_bias"]), _ch4_theta(ts["wrong_design"]), _ch4_theta(ts["wrong_design_off"])
+    # the wrong start's Θ and the right start's Θ at the same instant, with the bias row left out
+    th_r, th_w, th_off = _ch4_theta(m), _ch4_theta(ts["wrong_design"]), _ch4_theta(ts["wrong_design_off"])
     sc_ = np.abs(th_r[0])
     sc_[sc_ == 0] = 1000.0
     keep = np.ones(th_r.shape[1], bool)
@@ -514,21 +513,20 @@ def ch4_load_step(ctx) -> ItemOutput:
                           "mean ± s.e.", "s.d.", "min … max",
                           f"printed law `mrac`, {CH4_PRINTED_REALISATIONS} realisations: min … max"], ens_rows)
 
-    pk_m, du0_m = start("mrac_bias")
+    pk_m, du0_m = start("mrac")
     pk_k, du0_k = start("mrac_kappa")
     claims = [
         Claim("passive sag with the stops (30–40 s)", "≈ 15 cm ([CALC] 0.144 m)", f"{-z['passive']:.3f} m",
               "reproduced" if abs(z["passive"] + 0.144) < 0.025 else "not"),
-        Claim("the printed law (scenario default `mrac`: κ = 1, RLS with Q = 0, the printed φ without a constant) "
-              "holds the level", "maintains the static level (Fig. 4.4)",
+        Claim("the printed law (scenario default `mrac`: κ = 1, RLS with Q = 0) holds the level",
+              "maintains the static level (Fig. 4.4)",
               f"mean 30–40 s {z['mrac'] * 100:.1f} cm; 2-s means after the step "
               + ", ".join(f"{a * 100:.1f}" for a in after["mrac"]) + f" cm; baseline adaptation off (`mrac_off`) "
               f"{z['mrac_off'] * 100:.1f} cm, passive {z['passive'] * 100:.1f} cm",
               "reproduced" if abs(z["mrac"]) < 0.02 else "partly" if abs(z["mrac"]) < 0.5 * abs(z["mrac_off"])
               else "not",
-              "without a constant in φ the static force comes from Θᵀφ's output and input terms, i.e. from a level "
-              "error, and with Q = 0 the body sticks wherever the 1000 N friction catches it (anywhere within "
-              "±F/K = ±20 cm of the spring equilibrium)"),
+              "the bias (operating-point force) estimate supplies the static force, but with Q = 0 the body sticks "
+              "wherever the 1000 N friction catches it (anywhere within ±F/K = ±20 cm of the spring equilibrium)"),
         Claim("mean upward force, printed law", "≈ 1500 N (Fig. 4.8)",
               f"{F['mrac']:.0f} N (adaptation off {F['mrac_off']:.0f} N; 150·g = 1471 N)",
               "reproduced" if abs(F["mrac"] - 1471) < 200 else "not"),
@@ -540,23 +538,11 @@ def ch4_load_step(ctx) -> ItemOutput:
               "the 1000 N Coulomb friction locks the body to the base (road spring force ≈ 150 N); where the printed "
               "law breaks it away it does not move the body with the reference (adaptation off stays locked and "
               "passive-like)"),
-        Claim("the same law with our bias parameter (`mrac_bias`: the constant −1 in φ with the operating-point "
-              "force u0; ours, in every other adaptive variant below)", "maintains the static level, ≈ 1500 N, "
-              "follows (Figs. 4.4, 4.7, 4.8)",
-              f"level 30–40 s {z['mrac_bias'] * 100:.1f} cm (printed {z['mrac'] * 100:.1f}); 2-s means after the step "
-              + ", ".join(f"{a * 100:.1f}" for a in after["mrac_bias"]) + f" cm; force {F['mrac_bias']:.0f} N "
-              f"(printed {F['mrac']:.0f}); following {fol['mrac_bias'] * 1000:.1f} mm (printed "
-              f"{fol['mrac'] * 1000:.1f}), stuck {stuck['mrac_bias']:.0%}",
-              "partly" if abs(z["mrac_bias"]) < 0.5 * abs(z["mrac_off"]) and abs(F["mrac_bias"] - 1471) < 200
-              else "not",
-              "the bias estimate supplies the static force; the friction still holds the body low, and it follows "
-              "worse than passive"),
-        Claim("κ = 1 (the thesis's d-step-ahead law, with our bias: `mrac_bias`) against our κ = 0.1 (`mrac_kappa`, "
-              "with the bias), both Q = 0", "κ not in the thesis (κ = 1)",
-              f"κ = 1: level {z['mrac_bias'] * 100:.1f} cm, force {F['mrac_bias']:.0f} N, following "
-              f"{fol['mrac_bias'] * 1000:.1f} mm, "
-              f"stuck {stuck['mrac_bias']:.0%}, first 1.5 s peak {pk_m / 1000:.1f} kN and {du0_m:.0f} N per step, then "
-              f"{dU('mrac_bias'):.0f} N per step; κ = 0.1: {z['mrac_kappa'] * 100:.1f} cm, {F['mrac_kappa']:.0f} N, "
+        Claim("κ = 1 (the thesis's d-step-ahead law, `mrac`) against our κ = 0.1 (`mrac_kappa`), both Q = 0",
+              "κ not in the thesis (κ = 1)",
+              f"κ = 1: level {z['mrac'] * 100:.1f} cm, force {F['mrac']:.0f} N, following {fol['mrac'] * 1000:.1f} mm, "
+              f"stuck {stuck['mrac']:.0%}, first 1.5 s peak {pk_m / 1000:.1f} kN and {du0_m:.0f} N per step, then "
+              f"{dU('mrac'):.0f} N per step; κ = 0.1: {z['mrac_kappa'] * 100:.1f} cm, {F['mrac_kappa']:.0f} N, "
               f"{fol['mrac_kappa'] * 1000:.1f} mm, stuck {stuck['mrac_kappa']:.0%}, {pk_k / 1000:.1f} kN and "
               f"{du0_k:.0f} N per step, then {dU('mrac_kappa'):.0f} N per step", "n.a.",
               "κ = 1 does not ring here (the friction-locked body keeps its increments small after the start, "
@@ -571,22 +557,19 @@ def ch4_load_step(ctx) -> ItemOutput:
               "partly" if abs(eL[0]) < 0.02 and abs(eF[0] - 1471) < 200 else "not",
               "ours, not the thesis's value; chaotic: the covariance addition lets the estimates wander while "
               "friction locks the body (ensemble table)"),
-        Claim("adaptation from a stated wrong design (`wrong_design`: M* +30 %, K* −30 %, C0 +30 %, ours), the law with "
-              "our bias (right start `mrac_bias`)",
+        Claim("adaptation from a stated wrong design (`wrong_design`: M* +30 %, K* −30 %, C0 +30 %, ours), printed law",
               "estimates converge fast from their initial values (Fig. 4.6)",
               "Θ distance (scaled, bias row left out) to the right start's Θ at "
               + ", ".join(f"{t_:g}" for t_ in gap_t) + " s: " + ", ".join(f"{g:.2f}" for g in gaps)
               + f" (adaptation off stays {off_gap:.2f}); the right start's own Θ moves "
               + ", ".join(f"{d_:.2f}" for d_ in drift_r) + f" from the nominal design (the wrong start's "
               f"{travel_w:.2f} from its own); level {z['wrong_design'] * 100:.1f} cm (right start "
-              f"{z['mrac_bias'] * 100:.1f}, adaptation off {z['wrong_design_off'] * 100:.1f}), following "
-              f"{fol['wrong_design'] * 1000:.1f} mm ({fol['mrac_bias'] * 1000:.1f}, "
-              f"{fol['wrong_design_off'] * 1000:.1f})",
+              f"{z['mrac'] * 100:.1f}, adaptation off {z['wrong_design_off'] * 100:.1f}), following "
+              f"{fol['wrong_design'] * 1000:.1f} mm ({fol['mrac'] * 1000:.1f}, {fol['wrong_design_off'] * 1000:.1f})",
               "partly" if gaps[-1] < 0.5 * gaps[0] else "not",
               "the wrong start's estimates merge with the right start's (the loop forgets its initial design), but "
               "neither settles: on the friction-locked body the data do not identify Θ"),
-        Claim("mode I drifts (K −20 % over 10–50 s, C_v −50 % at 30 s: sizes ours) with the load step, the law with "
-              "our bias (`drift_mrac`)",
+        Claim("mode I drifts (K −20 % over 10–50 s, C_v −50 % at 30 s: sizes ours) with the load step, printed law",
               "robust to K(t), C_v(t) (Figs. 2.7–2.8, 4.4)",
               f"mean level 30–40 s: MRAC {z['drift_mrac'] * 100:.1f} cm, passive {z['drift_passive'] * 100:.1f} cm, "
               f"`drift_mrac_kappa_q` (ours) {z['drift_mrac_kappa_q'] * 100:.1f} cm; 42–50 s (load off, K −18 %): "
@@ -619,9 +602,8 @@ def ch4_load_step(ctx) -> ItemOutput:
         tables.insert(0, md_table(["sine amplitudes", "friction law", "reference RMS (mm)",
                                    "printed-law MRAC RMS(body − ref) (mm)", "passive (mm)"], study))
     fig, ax = plt.subplots(3, 1, figsize=(7.5, 7.5), sharex=True)
-    for k, s in (("passive", "g-"), ("mrac_off", "y-"), ("mrac", "r-"), ("mrac_bias", "m-"), ("mrac_kappa_q", "b-")):
-        ax[0].plot(ts[k].t, ts[k].body_z, s, lw=0.7, label=k + (" (ours)" if k in ("mrac_bias", "mrac_kappa_q") else
-                                                               " (printed)" if k == "mrac" else ""))
+    for k, s in (("passive", "g-"), ("mrac_off", "y-"), ("mrac", "r-"), ("mrac_kappa_q", "b-")):
+        ax[0].plot(ts[k].t, ts[k].body_z, s, lw=0.7, label=k + (" (ours)" if k == "mrac_kappa_q" else ""))
         ax[1].plot(ts[k].t, ts[k].actuator_force, s, lw=0.6)
     ax[0].plot(m.t, ref, "k:", lw=0.7, label="reference")
     ax[0].plot(m.t, m.road, "c-", lw=0.4, label="base w")
@@ -630,7 +612,7 @@ def ch4_load_step(ctx) -> ItemOutput:
     ax[1].set_ylabel("actuator force (N)")
     ax[1].set_ylim(-6000, 6000)
     tt = m.t.to_numpy()
-    for a_, b_, s, lab in ((th_w, th_r, "m-", "wrong design − right start (both with our bias)"),
+    for a_, b_, s, lab in ((th_w, th_r, "m-", "wrong design − right start"),
                            (th_r, np.broadcast_to(th_r[0], th_r.shape), "r-", "right start − nominal design"),
                            (th_off, th_r, "y--", "wrong design, adaptation off − right start")):
         ax[2].plot(tt, np.linalg.norm(((a_ - b_) / sc_)[:, keep], axis=1), s, lw=0.8, label=lab)
@@ -640,13 +622,10 @@ def ch4_load_step(ctx) -> ItemOutput:
     ax[2].set_xlabel("time (s)")
     ax[2].legend(fontsize=7)
     fig.suptitle("Thesis Ch. 4 (Figs. 4.4–4.8): discrete MRAC, 0.05 s delay, +150 kg at 20–40 s;\nprinted law "
-                 "(`mrac`: κ = 1, Q = 0, no bias), adaptation off; ours: with the bias, and κ = 0.1, Q = 1e-4",
-                 fontsize=9)
+                 "(`mrac`: κ = 1, Q = 0), adaptation off, and ours (κ = 0.1, Q = 1e-4)", fontsize=9)
     fig.tight_layout()
     key = {"passive_sag": (z["passive"], 0.01), "mrac_level": (z["mrac"], 0.01), "mrac_force": (F["mrac"], 10.0),
            "mrac_follow": (fol["mrac"], 1e-3), "off_level": (z["mrac_off"], 0.01),
-           "bias_level": (z["mrac_bias"], 0.01), "bias_force": (F["mrac_bias"], 10.0),
-           "bias_follow": (fol["mrac_bias"], 1e-3),
            "kappa_level": (z["mrac_kappa"], 0.01), "kappa_force": (F["mrac_kappa"], 10.0),
            "kappa_follow": (fol["mrac_kappa"], 1e-3), "wrong_level": (z["wrong_design"], 0.01),
            "wrong_follow": (fol["wrong_design"], 1e-3),
@@ -662,15 +641,24 @@ def ch4_load_step(ctx) -> ItemOutput:
            # statistics of the distribution less sensitive to its tails: medians and the fraction past the stops
            "q_ensemble_median_level": (mL[0], 0.01, mL[1]), "q_ensemble_median_force": (mF[0], 10.0, mF[1]),
            "q_ensemble_stops_fraction": (eB[0], 0.05, eB[1])}
+    if "mrac_no_bias" in ts:  # the printed φ (no constant −1): nothing but an output error carries the load
+        nb = "mrac_no_bias"
+        claims.append(Claim(
+            "the printed law with the printed regressor (`mrac_no_bias`: κ = 1, Q = 0, no bias parameter) holds the "
+            "level (30–40 s)", "maintains the static level, ≈ 1500 N (Figs. 4.4, 4.8)",
+            f"level {z[nb] * 100:.1f} cm, force {F[nb]:.0f} N, following {fol[nb] * 1000:.1f} mm; with our bias "
+            f"(`mrac`) {z['mrac'] * 100:.1f} cm, {F['mrac']:.0f} N; adaptation off {z['mrac_off'] * 100:.1f} cm",
+            "reproduced" if abs(z[nb]) < 0.02 and abs(F[nb] - 1471) < 200 else
+            "partly" if abs(z[nb]) < 0.5 * abs(z["mrac_off"]) else "not",
+            "without the constant the static force must come from Θᵀφ's output terms, i.e. from a level error"))
+        key.update({"no_bias_level": (z[nb], 0.01), "no_bias_force": (F[nb], 10.0)})
     notes = [HALF_NOTE,
              "Literal first: the scenario default `mrac` is the law as printed, the d-step-ahead control of Eq. 4.55 "
-             "(κ = 1) with the RLS of Eq. 4.56 at Q = 0 and the printed regressor φ (no constant).  Eq. 4.56 prints a covariance addition 0 ≤ Q < ∞ whose value the "
+             "(κ = 1) with the RLS of Eq. 4.56 at Q = 0.  Eq. 4.56 prints a covariance addition 0 ≤ Q < ∞ whose value the "
              "thesis never gives (its text says the addition keeps P high for fast re-adaptation), so Q = 0 is the "
              "printed law at the bottom of its range and Q = 1e-4 per step is our value (`mrac_kappa_q`); κ < 1 is ours.  "
-             "The bias parameter (the constant −1 in φ with the operating-point force u0 of the linearisation, Eq. 4.7) "
-             "is ours: variant `mrac_bias` (controller switch bias: true), carried by every other adaptive variant "
-             "(`mrac_kappa`, `mrac_kappa_q`, the wrong design, the drifts); adaptation off (`mrac_off`) holds a bias "
-             "at its initial 0 either way.",
+             "The bias parameter (the operating-point force u0 of the linearisation, Eq. 4.7) is our reading and is in "
+             "every variant but `mrac_no_bias` (the printed regressor, controller switch bias: false).",
              f"Ensemble (table): realisation k scales the first sine amplitude by 1 + k·{CH4_PERTURBATION:g} "
              f"(k = 0 … {CH4_REALISATIONS - 1}: ≤ {(CH4_REALISATIONS - 1) * CH4_PERTURBATION * 0.02 * 1e6:.0f} µm); the "
              f"realisations run to {CH4_ENSEMBLE_S:g} s, the end of the load step (every number of the table is read "
@@ -813,42 +801,14 @@ def polarity_claim(quantity, thesis, a, when_a, b, when_b) -> Claim:
                  "reproduced" if (fa < 0 < ra and rb < 0 < fb) else "not")
 
 
-PRINTED_CH7 = ("the thesis's law as printed (scenario default `mimo_mrac_thesis`: the pure d-step-ahead control, κ = 1, "
-               "the printed φ without a constant)")
-BIAS_CH7 = "`mimo_mrac_thesis_bias`: κ = 1 with our bias parameter"
+PRINTED_CH7 = "the thesis's law as printed (scenario default `mimo_mrac_thesis`: the pure d-step-ahead control, κ = 1)"
 
 
-def _only_printed_diverge(dv, allowed=("mimo_mrac_thesis", "mimo_fixed_thesis", "mimo_mrac_thesis_bias")):
-    """Re-raise a divergence stop of any variant but the κ = 1 laws' (their running away is a result)."""
+def _only_printed_diverge(dv, allowed=("mimo_mrac_thesis", "mimo_fixed_thesis", "mimo_mrac_thesis_no_bias")):
+    """Re-raise a divergence stop of any variant but the printed laws' (their running away is a result)."""
     for k, e_ in dv.items():
         if k not in allowed:
             raise e_
-
-
-def _until_stop(ctx, name, variant, e, margin=0.03):
-    """A run that stopped on the divergence check (``e``), rerun up to ``margin`` before its stop, for the figure
-    (the printed law beside ours; at the item's own step only: the half-step run draws no figure); None if not
-    run or if it still stops."""
-    if ctx.step_factor != 1.0 or e is None or e.time <= margin + 0.01:
-        return None
-    sc = ctx.variants(name, [f"sim.duration={e.time - margin:.4f}"], only=[variant])[variant]
-    try:
-        return run_each(ctx, {variant: sc}, f"{name}: {variant} until its stop")[variant].ts
-    except SimulationDiverged:
-        return None
-
-
-def _draw_until_stop(axx, ts_, col, scale, style, label, e):
-    """The printed law's trace until its divergence stop, on an axis kept at the other runs' scale."""
-    lo, hi = axx.get_ylim()
-    if ts_ is not None:
-        axx.plot(ts_.t, scale * ts_[col], style, lw=0.8, label=label)
-    if e is not None:
-        axx.axvline(e.time, color=style[0], ls=":", lw=0.8)
-        axx.text(0.99, 0.03 + 0.08 * len(axx.texts), f"{label}: diverges at {e.time:.3g} s", transform=axx.transAxes,
-                 fontsize=7, color=style[0], ha="right", va="bottom", zorder=6,
-                 bbox={"facecolor": "white", "edgecolor": "none", "alpha": 0.8, "pad": 1})
-    axx.set_ylim(lo, hi)
 
 
 def _ring(ts):
@@ -886,31 +846,25 @@ def ch7_braking(ctx) -> ItemOutput:
     ]
     if key:
         claims.append(Claim(f"{PRINTED_CH7} eliminates the dive", "dive \"mostly eliminated\"", printed, ok_p,
-                            "the rows below are ours (κ = 0.2 with the bias parameter: `mimo_mrac` and the other "
-                            "variants): the κ = 1 law cancels the sampling zero near z = −1 and rings at the Nyquist "
-                            "frequency"))
-    if "mimo_mrac_thesis_bias" in dv or "mimo_mrac_thesis_bias" in ts:
-        if "mimo_mrac_thesis_bias" in dv:
-            got_b, ok_b = "diverges: " + diverged_text(dv["mimo_mrac_thesis_bias"]), "not"
-            key["thesis_bias_stop_s"] = (float(dv["mimo_mrac_thesis_bias"].time), 0.01)
-        else:
-            got_b = f"ran to the end: peak |pitch| {pk['mimo_mrac_thesis_bias']:.2f}°"
-            ok_b = "reproduced" if pk["mimo_mrac_thesis_bias"] < 0.2 * pk["passive"] else "not"
-        claims.append(Claim(f"{BIAS_CH7} (ours) eliminates the dive", "dive \"mostly eliminated\"", got_b, ok_b,
-                            "the bias carries the manoeuvre moment (the printed law, without it, runs away sooner); "
-                            "κ = 1 still rings"))
-    if "mimo_mrac_no_bias" in ts:  # κ = 0.2 with the printed regressor: no parameter carries the manoeuvre moment
-        nb = "mimo_mrac_no_bias"
-        ok_nb = pk[nb] < 0.2 * pk["passive"]
+                            "the rows below are our κ = 0.2 (`mimo_mrac` and the other variants): the κ = 1 law "
+                            "cancels the sampling zero near z = −1 and rings at the Nyquist frequency"))
+    nbv = [k for k in ("mimo_mrac_no_bias", "mimo_mrac_thesis_no_bias") if k in ts or k in dv]
+    if nbv:  # the printed regressor (no constant −1): no parameter carries the manoeuvre moment
+        def nb_text(k):
+            if k in dv:
+                return f"`{k}` diverges at {dv[k].time:.2f} s"
+            return (f"`{k}` peak |pitch| {pk[k]:.2f}°, 4–9 s max "
+                    f"{np.degrees(np.max(np.abs(ts[k].pitch.to_numpy()[win(ts[k], 4, 9)]))):.2f}°")
+        ok_nb = "mimo_mrac_no_bias" in ts and pk["mimo_mrac_no_bias"] < 0.2 * pk["passive"]
         claims.append(Claim(
-            "κ = 0.2 (ours) without the bias parameter (the printed φ, `mimo_mrac_no_bias`) eliminates the dive",
-            "dive \"mostly eliminated\"",
-            f"peak |pitch| {pk[nb]:.2f}°, 4–9 s max "
-            f"{np.degrees(np.max(np.abs(ts[nb].pitch.to_numpy()[win(ts[nb], 4, 9)]))):.2f}°; with our bias "
-            f"(`mimo_mrac`) {pk['mimo_mrac']:.2f}°, passive {pk['passive']:.2f}°", "reproduced" if ok_nb else "not",
+            "without the bias parameter (the printed φ, `bias: false`): κ = 0.2 (`mimo_mrac_no_bias`) and κ = 1 "
+            "(`mimo_mrac_thesis_no_bias`) eliminate the dive", "dive \"mostly eliminated\"",
+            "; ".join(nb_text(k) for k in nbv) + f"; with our bias (`mimo_mrac`) {pk['mimo_mrac']:.2f}°, passive "
+            f"{pk['passive']:.2f}°", "reproduced" if ok_nb else "not",
             "our bias (the operating-point force) carries the manoeuvre moment; without it the κ = 0.2 blend (an "
-            "integrator on U) still holds the squat, but the loop bursts after the braking"))
-        key["no_bias_pitch_deg"] = (pk[nb], 0.1)
+            "integrator on U) still holds the squat, but the loop bursts after the braking; κ = 1 runs away"))
+        if "mimo_mrac_no_bias" in ts:
+            key["no_bias_pitch_deg"] = (pk["mimo_mrac_no_bias"], 0.1)
     claims += [
         Claim("MIMO MRAC (ours: κ = 0.2) eliminates the dive", "dive \"mostly eliminated\"",
               f"peak |pitch| {pk['mimo_mrac']:.2f}° vs passive {pk['passive']:.2f}° "
@@ -947,24 +901,13 @@ def ch7_braking(ctx) -> ItemOutput:
         ax[1].plot(ts[k].t, 1000 * ts[k].body_z, s, lw=0.8)
     ax[2].plot(ts["mimo_mrac"].t, ts["mimo_mrac"].actuator_force_front, "b-", lw=0.8, label="front")
     ax[2].plot(ts["mimo_mrac"].t, ts["mimo_mrac"].actuator_force_rear, "m-", lw=0.8, label="rear")
-    # the printed law (κ = 1, no bias) and κ = 1 with our bias, each until its divergence stop
-    for k, s in (("mimo_mrac_thesis", "k-"), ("mimo_mrac_thesis_bias", "c-")):
-        lab = "printed (κ = 1, no bias)" if k == "mimo_mrac_thesis" else "κ = 1 + our bias"
-        if k in ts:
-            ax[0].plot(ts[k].t, np.degrees(ts[k].pitch), s, lw=0.8, label=lab)
-        elif k in dv:
-            tk = _until_stop(ctx, "thesis_ch7_braking", k, dv[k])
-            _draw_until_stop(ax[0], tk, "pitch", 180 / np.pi, s, lab, dv[k])
-            _draw_until_stop(ax[1], tk, "body_z", 1000.0, s, lab, None)
     ax[0].set_ylabel("pitch (°, nose down +)")
     ax[0].legend(fontsize=7, ncol=2)
     ax[1].set_ylabel("bounce (mm)")
     ax[2].set_ylabel("MRAC force (N)")
     ax[2].legend(fontsize=7)
     ax[2].set_xlabel("time (s)")
-    fig.suptitle("Thesis Ch. 7: accelerate 4 m/s² (1–9 s), brake 7 m/s² (9–11 s); the printed law (κ = 1, no bias) "
-                 "until it runs away,\nours (`mimo_mrac`: κ = 0.2 with the bias) on the thesis's and an asymmetric car",
-                 fontsize=9)
+    fig.suptitle("Thesis Ch. 7: accelerate 4 m/s² (1–9 s), brake 7 m/s² (9–11 s)", fontsize=9)
     fig.tight_layout()
     key.update({"passive_dive_deg": (dive, 0.1), "mrac_pitch_deg": (pk["mimo_mrac"], 0.1),
                 "asym_passive_bounce": (zb["asym_passive"], 1e-3), "asym_mrac_bounce": (zb["asym_mimo_mrac"], 1e-3)})
@@ -1049,7 +992,7 @@ def ch7_road(ctx) -> ItemOutput:
                        a, "22–28 s", b, "40.3–42 s"),
     ]
     key = {}
-    if any(k in ts or k in dv for k in ("mimo_mrac_thesis", "mimo_fixed_thesis", "mimo_mrac_thesis_bias")):
+    if any(k in ts or k in dv for k in ("mimo_mrac_thesis", "mimo_fixed_thesis")):
         def printed(k):
             if k in dv:  # (no key: the stop time of the runaway depends on the step, the page gives both)
                 return "diverges: " + diverged_text(dv[k])
@@ -1062,15 +1005,14 @@ def ch7_road(ctx) -> ItemOutput:
                     f"{up / 1000:.1f} kN")
         du_o, up_o = _ring(m)
         claims.insert(1, Claim(
-            f"{PRINTED_CH7}, the same with adaptation off (`mimo_fixed_thesis`), and with our bias ({BIAS_CH7})",
+            f"{PRINTED_CH7}, and the same with adaptation off (`mimo_fixed_thesis`)",
             "adapts within 4 s, follows the reference, dive removed",
-            f"adaptive: {printed('mimo_mrac_thesis')}; adaptation off: {printed('mimo_fixed_thesis')}; with our bias: "
-            f"{printed('mimo_mrac_thesis_bias')}; ours (κ = 0.2 with the bias, "
+            f"adaptive: {printed('mimo_mrac_thesis')}; adaptation off: {printed('mimo_fixed_thesis')}; ours (κ = 0.2, "
             f"`mimo_mrac`): mean |ΔU| {du_o:.0f} N per step, peak |U| {up_o / 1000:.1f} kN",
             "not" if "mimo_mrac_thesis" in dv or "mimo_mrac_thesis" not in ts
             or e["mimo_mrac_thesis"]["body_z"] > 0.2 * e["passive"]["body_z"] else "reproduced",
             "the pure d-step-ahead law cancels the sampling zero near z = −1 (thesis_common.DiscreteMRAC); the other "
-            "rows are ours (κ = 0.2 with the bias)"))
+            "rows are our κ = 0.2"))
     if "mimo_mrac_no_bias" in ts:  # the printed regressor (no constant −1), κ = 0.2
         nb = "mimo_mrac_no_bias"
         claims.append(Claim(
@@ -1116,10 +1058,6 @@ def ch7_road(ctx) -> ItemOutput:
         ax[1].plot(ts[k].t, np.degrees(ts[k].pitch), s_, lw=0.5)
     ax[0].plot(m.t, 1000 * ref.body_z, "k:", lw=0.7, label="reference")
     ax[1].plot(m.t, np.degrees(ref.pitch), "k:", lw=0.7)
-    if "mimo_mrac_thesis" in dv:  # the printed law (κ = 1, no bias) until its divergence stop
-        tp = _until_stop(ctx, "thesis_ch7_road", "mimo_mrac_thesis", dv["mimo_mrac_thesis"])
-        _draw_until_stop(ax[0], tp, "body_z", 1000.0, "c-", "printed (κ = 1, no bias)", dv["mimo_mrac_thesis"])
-        _draw_until_stop(ax[1], tp, "pitch", 180 / np.pi, "c-", "printed", None)
     ax[2].plot(m.t, m.actuator_force_front, "b-", lw=0.5, label="front (leading)")
     ax[2].plot(m.t, m.actuator_force_rear, "m-", lw=0.5, label="rear (trailing)")
     ax[0].set_ylabel("bounce (mm)")
@@ -1207,7 +1145,7 @@ def ch7_dirt(ctx) -> ItemOutput:
     div = {}  # the probing IV variant may run away (page), and the printed κ = 1 law (a result)
     res = run_each(ctx, ctx.variants("thesis_ch7_dirt"), "thesis_ch7_dirt", diverged=div)
     for k, e_ in div.items():
-        if "probe" not in k and k not in ("mimo_mrac_thesis", "mimo_mrac_thesis_bias", "mimo_mrac_no_bias"):
+        if "probe" not in k and k not in ("mimo_mrac_thesis", "mimo_mrac_no_bias"):
             raise e_
     ts = {k: r.ts for k, r in res.items()}
     m = ts["mimo_mrac"]
@@ -1252,10 +1190,8 @@ def ch7_dirt(ctx) -> ItemOutput:
                      f"{up / 1000:.1f} kN")
             ok_p = "reproduced" if ep_ < min(0.5 * e["passive"]["body_z"], e["mimo_fixed"]["body_z"]) else "not"
             pkey["printed_bounce_err"] = (ep_, 1e-3)
-        if "mimo_mrac_thesis_bias" in div:  # (no key: as above)
-            got_p += f"; with our bias ({BIAS_CH7}): diverges at {div['mimo_mrac_thesis_bias'].time:.2f} s"
         claims.append(Claim(PRINTED_CH7, "adapts within 4 s, follows closely throughout (Fig. 7.8)", got_p, ok_p,
-                            "the rows below are ours (κ = 0.2 with the bias)"))
+                            "the rows below are our κ = 0.2"))
     if "mimo_mrac_no_bias" in ts or "mimo_mrac_no_bias" in div:
         if "mimo_mrac_no_bias" in div:
             got_nb = f"diverges at {div['mimo_mrac_no_bias'].time:.2f} s"
@@ -1380,9 +1316,6 @@ def ch7_dirt(ctx) -> ItemOutput:
     for k, s_ in (("passive", "g-"), ("mimo_fixed", "b-"), ("mimo_mrac", "r-"), ("mimo_mrac_q0", "m-")):
         ax[0, 0].plot(ts[k].t, 1000 * ts[k].body_z, s_, lw=0.4, label=k)
     ax[0, 0].plot(m.t, 1000 * ref.body_z, "k:", lw=0.6, label="reference")
-    if "mimo_mrac_thesis" in div:  # the printed law (κ = 1, no bias) until its divergence stop
-        _draw_until_stop(ax[0, 0], _until_stop(ctx, "thesis_ch7_dirt", "mimo_mrac_thesis", div["mimo_mrac_thesis"]),
-                         "body_z", 1000.0, "c-", "printed (κ = 1, no bias)", div["mimo_mrac_thesis"])
     ax[0, 0].set_ylabel("bounce (mm)")
     ax[0, 0].set_xlabel("time (s)")
     ax[0, 0].legend(fontsize=6, ncol=2)
@@ -1896,15 +1829,8 @@ def ch6(ctx) -> ItemOutput:
                                 "reproduced" if up > us else "not"))
             key["sine_drift_err_after"] = (after["adaptive"], 1e-3)
         for k, s_ in (("passive", "g-"), ("nonadaptive", "b:"), ("adaptive", "r-")):
-            ax[i].plot(ts[k].t, 1000 * ts[k].travel_secondary, s_, lw=0.6, label=k + (" (ours)" if k == "adaptive"
-                                                                                       else ""))
+            ax[i].plot(ts[k].t, 1000 * ts[k].travel_secondary, s_, lw=0.6, label=k)
         ax[i].plot(a.t, 1000 * a["ctrl.ref_z.0"], "k--", lw=0.6, label="reference")
-        if "adaptive_thesis" in ts:  # the printed laws beside ours; until their divergence stop where they run away
-            ax[i].plot(ts["adaptive_thesis"].t, 1000 * ts["adaptive_thesis"].travel_secondary, "c-", lw=0.6,
-                       label="printed")
-        elif "adaptive_thesis" in dv:
-            _draw_until_stop(ax[i], _until_stop(ctx, name, "adaptive_thesis", dv["adaptive_thesis"]),
-                             "travel_secondary", 1000.0, "c-", "printed", dv["adaptive_thesis"])
         ax[i].set_ylabel(f"{short}: sec. travel (mm)", fontsize=8)
         ax[i].legend(fontsize=7, ncol=4)
         if short == "random":
@@ -1913,8 +1839,7 @@ def ch6(ctx) -> ItemOutput:
             ax[i].set_xlim(10, 16)
     ax[-1].set_xlabel("time (s)")
     fig.suptitle("Thesis Ch. 6: 2-DOF bounce model, MDOF adaptive control (Figs. 6.8–6.14); bump and sine with "
-                 "the mode I drifts;\nthe printed laws (`adaptive_thesis`, until their divergence stop) beside ours "
-                 "(`adaptive`)", fontsize=9)
+                 "the mode I drifts", fontsize=9)
     fig.tight_layout()
     table = md_table(["road", "quantity (RMS, mm)", "reference", "adaptive", "non-adaptive (α = β = 0)", "passive"],
                       rows)
