@@ -141,7 +141,8 @@ class SimCfg(_Strict):
         "dampers split half implicit, half explicit, and the body-wheel damper coupling that MuJoCo's implicit "
         "step leaves out supplied from the last step: second order at the same cost; needs damping*dt/mass <= 1 "
         "and a model with tires); or RK4 (4th order for the linear plant; 3.5x the cost). Effect and actuator "
-        "forces are held over each step in all three")
+        "forces are held over each step in all three (first order in the step for a force that moves within it; "
+        "coulomb_friction, bump_stop and quadratic_damping offer step_force: mean, their mean over the step)")
     max_displacement: float = Field(5.0, gt=0, description="divergence guard on |position| in m (or rad)")
     max_velocity: float = Field(200.0, gt=0, description="divergence guard on |velocity| in m/s")
 

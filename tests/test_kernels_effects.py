@@ -49,6 +49,48 @@ def test_quadratic_damping_law():
     np.testing.assert_allclose(f(eff, [[0.1, 0.0], [0.0, 0.0]], v), ref, rtol=1e-15)
 
 
+def test_quadratic_damping_step_mean_law():
+    """step_force: mean: −c_v times the mean of w·|w| over the step, w linear from v with the last step's slope
+    (v − v_prev)/dt (the first step: held), against quadrature; one sign, a reversal inside the step, and the
+    start law differs on the same sequence (the check can fail)."""
+    c = 250.0
+    eff = build("quadratic_damping", [{"c_v": c, "step_force": "mean"}], n_sel=1)
+    start = build("quadratic_damping", [{"c_v": c}], n_sel=1)
+    tau = (np.arange(20000) + 0.5) / 20000
+    v_prev, diff = None, 0.0
+    for v in (0.8, 1.0, 0.3, 0.05, -0.1, -0.4, -0.2):
+        a = 0.0 if v_prev is None else (v - v_prev) / DT
+        w = v + a * DT * tau
+        ref = -c * np.mean(w * np.abs(w))
+        got = f(eff, [[0.0]], [[v]])[0, 0]
+        assert got == pytest.approx(ref, rel=1e-6, abs=1e-9), v
+        diff = max(diff, abs(got - f(start, [[0.0]], [[v]])[0, 0]))
+        v_prev = v
+    assert diff > 10.0
+
+
+def test_bump_stop_step_mean_law():
+    """step_force: mean: the law's exact mean over the step along the travel s + v·τ, against quadrature of the
+    start-of-step law (the damped stop jumps by c·v at a contact inside the step); fully engaged at v = 0 it is
+    the start law, and on a contact inside the step it differs from it (the check can fail)."""
+    k, c, gc, ge = 40000.0, 2000.0, 0.03, 0.05
+    for damping in (0.0, c):
+        raw = {"gap": 0.05, "gap_compression": gc, "stiffness": k, "damping": damping}
+        eff = build("bump_stop", [dict(raw, step_force="mean")], n_sel=1)
+        start = build("bump_stop", [raw], n_sel=1)
+        tau = (np.arange(40000) + 0.5) / 40000 * DT
+        diff = 0.0
+        for s, v in [(0.0, 1.0), (-0.0295, -2.0), (-0.0305, 2.0), (-0.04, -0.2), (-0.04, 0.5), (-0.04, 0.0),
+                     (0.0498, 1.0), (0.0502, -1.0), (0.07, -0.5), (-0.02, -30.0)]:
+            ref = np.mean([f(start, [[s + v * x]], [[v]])[0, 0] for x in tau])
+            got = f(eff, [[s]], [[v]])[0, 0]
+            assert got == pytest.approx(ref, rel=1e-4, abs=(k * abs(v) * DT + damping * abs(v)) * 1e-4), (s, v)
+            assert eff.signals()["engaged"][0, 0] == (1.0 if s < -gc else -1.0 if s > ge else 0.0)
+            diff = max(diff, abs(got - f(start, [[s]], [[v]])[0, 0]))
+        assert f(eff, [[-0.04]], [[0.0]])[0, 0] == f(start, [[-0.04]], [[0.0]])[0, 0] == pytest.approx(k * 0.01)
+        assert diff > 0.1 * k * 2.0 * DT
+
+
 def test_asymmetric_damping_coefficients_law():
     eff = build("asymmetric_damping", [{"c_comp": 800.0, "c_reb": 2400.0}, {"c_comp": [500.0, 0.0], "c_reb": 1500.0}])
     v = [[0.2, -0.2], [-0.1, 0.4]]
@@ -269,14 +311,14 @@ def test_coulomb_friction_stick_slip_step_mean_law():
 
 # ------------------------------------------------------------------------------------------------------
 ENSEMBLES = {
-    "quadratic_damping": [{"c_v": 300.0}, {"c_v": [100.0, 400.0]}, {"c_v": 0.0}],
+    "quadratic_damping": [{"c_v": 300.0}, {"c_v": [100.0, 400.0], "step_force": "mean"}, {"c_v": 0.0}],
     "asymmetric_damping": [{"table": [[-1.0, -900.0], [0.0, 0.0], [1.0, 1800.0]]}, {"c_comp": 500.0, "c_reb": 900.0},
                            {"table": [[-0.5, -400.0], [0.0, 0.0], [0.1, 100.0], [0.3, 900.0]]}],
     "coulomb_friction": [{"force": 100.0, "step_force": "mean"}, {"force": 150.0, "v_eps": 0.02},
                          {"force": [50.0, 400.0], "law": "stick_slip"}],
     # (an optional gap given for some cars and not others does not stack: each car sets both or none)
     "bump_stop": [{"gap": 0.01, "gap_compression": 0.01, "damping": 500.0},
-                  {"gap": [0.02, 0.005], "gap_compression": 0.004},
+                  {"gap": [0.02, 0.005], "gap_compression": 0.004, "step_force": "mean"},
                   {"gap": 0.015, "gap_compression": [0.02, 0.01], "stiffness": [1e4, 8e4]}],
     "cubic_stiffness": [{"k3": 1e6}, {"k3": [-2e5, 3e6]}, {"k3": 0.0}],
     "hysteresis": [{"force": 100.0, "x_y": 0.005}, {"force": [50.0, 200.0], "x_y": 0.002}, {"force": 0.0}],
@@ -333,6 +375,8 @@ ALL_EFFECTS = [
     {"type": "coulomb_friction", "params": {"force": 50.0, "v_eps": 0.05}},
     {"type": "coulomb_friction", "params": {"force": 60.0, "step_force": "mean"}},  # reads the actuator force
     {"type": "bump_stop", "params": {"gap": 0.02, "stiffness": 40000.0, "damping": 500.0}},
+    {"type": "bump_stop", "params": {"gap": 0.025, "stiffness": 30000.0, "damping": 300.0, "step_force": "mean"}},
+    {"type": "quadratic_damping", "params": {"c_v": 200.0, "step_force": "mean"}},
     {"type": "cubic_stiffness", "params": {"k3": 1e6}},
     {"type": "hysteresis", "params": {"force": 60.0, "x_y": 0.003}},
     {"type": "backlash", "params": {"stiffness": 3000.0, "play": 0.002}},

@@ -1,9 +1,10 @@
 """Bump and rebound stops: elastic (optionally damped) end stops beyond a free travel."""
 from __future__ import annotations
 
-from typing import Optional
+from typing import Literal, Optional
 
 import numba
+import numpy as np
 from pydantic import Field
 
 from ..components import Params
@@ -22,13 +23,47 @@ class BumpStopParams(Params):
     stiffness: PerCornerNonNeg = Field(40000.0, description="stop stiffness K_es in N/m")
     damping: PerCornerNonNeg = Field(0.0, description="stop damping in N·s/m, acting only while a stop is "
                                      "engaged, and never pulling")
+    step_force: Literal["start", "mean"] = Field(
+        "start", description="the force applied over a physics step. start: the law at the travel at the start "
+        "of the step (held over the step: first order in it, a negative damping k·dt/2 while engaged and up to "
+        "k·|v|·dt of impulse per step at a contact); mean: the law's exact mean over the step with the travel "
+        "taken as linear through it (s + v·τ; second order; a contact inside the step gets its part of the step)")
+
+
+@numba.njit(cache=True)
+def _ramp_mean(a0, a1, b0, b1, dt):
+    """The mean over τ in [0, dt] of ``b0 + b1·τ`` where both ``a0 + a1·τ > 0`` (the stop engaged) and
+    ``b0 + b1·τ > 0`` (it pushes), zero elsewhere: two linear functions of τ, so the part of the step where both
+    hold is one interval, over which the force is linear (its mean is the value at the interval's middle)."""
+    lo = 0.0
+    hi = dt
+    for c0, c1 in ((a0, a1), (b0, b1)):
+        if c1 > 0.0:
+            lo = max(lo, -c0 / c1)
+        elif c1 < 0.0:
+            hi = min(hi, -c0 / c1)
+        elif not c0 > 0.0:
+            return 0.0
+    if not hi > lo:
+        return 0.0
+    return (hi - lo) / dt * (b0 + b1 * 0.5 * (lo + hi))
 
 
 @numba.njit(cache=True)
 def _kernel(s, v, t, dt, p, st):
-    """The force of one corner; p = [g_c, g_e, k, c], st = [engaged]."""
+    """The force of one corner; p = [g_c, g_e, k, c, step mean (1/0)], st = [engaged].  With the step mean,
+    the law's mean over the step along the travel ``s + v·τ`` (:func:`_ramp_mean`; ``v`` held, so the damping
+    term ``c·v`` is constant while engaged)."""
     pen_c = -p[0] - s
     pen_e = s - p[1]
+    st[0] = (1.0 if pen_c > 0 else 0.0) - (1.0 if pen_e > 0 else 0.0)
+    if p[4] != 0.0:
+        if s != s or v != v:
+            return s + v  # NaN propagates
+        # compression: engaged while −g_c − s − v·τ > 0, pushing k·(−g_c − s − v·τ) − c·v up (never pulling);
+        # extension: engaged while s + v·τ − g_e > 0, pulling k·(s + v·τ − g_e) + c·v down (never pushing)
+        return (_ramp_mean(pen_c, -v, p[2] * pen_c - p[3] * v, -p[2] * v, dt)
+                - _ramp_mean(pen_e, v, p[2] * pen_e + p[3] * v, p[2] * v, dt))
     f_c = 0.0
     f_e = 0.0
     if pen_c > 0:
@@ -41,7 +76,6 @@ def _kernel(s, v, t, dt, p, st):
         f_e = x if x < 0.0 else 0.0
         if x != x:
             f_e = x
-    st[0] = (1.0 if pen_c > 0 else 0.0) - (1.0 if pen_e > 0 else 0.0)
     return f_c + f_e
 
 
@@ -62,6 +96,13 @@ class BumpStop(Effect):
     The damping acts only while a stop is engaged, and is clipped so that a stop never pulls (a separating
     stop with fast rebound gives zero force, not adhesion).  With ``c = 0`` this is the thesis's elastic
     limit stop ``K_es·S*·(z − (D/2)·sgn z)`` with ``gap = D/2`` (thesis: K_es = 40 kN/m, D = 25 cm).
+
+    Like every effect the force is computed once per physics step and held over it (``step_force: start``, the
+    default): the integrator (RK4 included) then sees the stop spring as a constant force, first order in the step
+    (a negative damping k·dt/2 while engaged, and a contact inside the step lands on a step boundary).  With
+    ``step_force: mean`` the force held is the law's exact mean over the step along the travel ``s + v·τ``: second
+    order (tests/test_effects.py; on the thesis Ch. 4 rig replaying a run that bursts 0.85 m past the stops, the
+    body's error at 0.0625 ms falls from 0.34 mm to 0.13 mm, 0.042 mm with the orifice damper's mean too).
 
     Signature in measured data: the restoring force rises sharply beyond a travel threshold (residual force
     vs travel is zero inside a band and grows steeply outside it), the travel distribution is clipped near
@@ -125,7 +166,9 @@ class BumpStop(Effect):
 
     def kernel_data(self):
         g_c, g_e = self.gaps()
-        return (self.pack(g_c, g_e, corner_array(self, "stiffness"), corner_array(self, "damping")),
+        steps = self.p.step_force if isinstance(self.p.step_force, list) else [self.p.step_force] * self.ctx.n_cars
+        mean = np.array([1.0 if sf == "mean" else 0.0 for sf in steps]).reshape(-1, 1)  # per car
+        return (self.pack(g_c, g_e, corner_array(self, "stiffness"), corner_array(self, "damping"), mean),
                 self.pack(0.0))
 
     def kernel_signals(self):

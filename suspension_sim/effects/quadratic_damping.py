@@ -1,7 +1,10 @@
 """Quadratic (orifice) damping on the suspension: F = −C_v·v·|v|."""
 from __future__ import annotations
 
+from typing import Literal
+
 import numba
+import numpy as np
 from pydantic import Field
 
 from ..components import Params
@@ -14,12 +17,27 @@ from .base import Effect
 class QuadraticDampingParams(Params):
     c_v: PerCornerNonNeg = Field(250.0, description="velocity-squared damping coefficient C_v in N·s²/m² "
                                  "(one value, or one per corner)")
+    step_force: Literal["start", "mean"] = Field(
+        "start", description="the force applied over a physics step. start: the law at the rate at the start of "
+        "the step (held over it: first order, an error c_v·|v|·a·dt); mean: the law's exact mean over the step "
+        "with the rate taken as linear through it, its slope the last step's (second order)")
 
 
 @numba.njit(cache=True)
 def _kernel(s, v, t, dt, p, st):
-    """The force of one corner; p = [c_v]."""
-    return -p[0] * v * abs(v)
+    """The force of one corner; p = [c_v, step mean (1/0)], st = [v_prev, has v_prev (1/0)].  With the step mean,
+    ``−c_v`` times the mean of ``w·|w|`` over ``w`` linear from ``v`` to ``v + a·dt``, ``a = (v − v_prev)/dt``
+    the last step's mean acceleration along the suspension (zero at the first step)."""
+    if p[1] == 0.0:
+        return -p[0] * v * abs(v)
+    w1 = 2.0 * v - st[0] if st[1] != 0.0 else v
+    st[0] = v
+    st[1] = 1.0
+    if (v >= 0.0) == (w1 >= 0.0):  # one sign over the step: the mean of w² over a ramp, no cancellation
+        m = (v * v + v * w1 + w1 * w1) / 3.0
+        return -p[0] * (m if v + w1 >= 0.0 else -m)
+    # a reversal inside the step: the mean of w·|w| is the difference of its antiderivative w²·|w|/3 (w1 ≠ v)
+    return -p[0] * (w1 * w1 * abs(w1) - v * v * abs(v)) / (3.0 * (w1 - v))
 
 
 @EFFECTS.register("quadratic_damping")
@@ -30,6 +48,10 @@ class QuadraticDamping(Effect):
     N·s²/m² (the thesis's orifice damper ``C_v``, 250 N·s²/m² for its SDOF rig); positive F pushes the body
     up.  It acts in addition to the vehicle's linear damper; set ``vehicle.params.damping: 0`` for a purely
     quadratic damper.
+
+    The force is held over each physics step (``step_force: start``, the default: first order in the step, an
+    impulse error ``c_v·|v|·a·dt²`` per step); ``step_force: mean`` holds the law's mean over the step with the rate
+    taken as linear through it, at the last step's slope (second order).
 
     Signature in measured data: the damping force grows with the square of the travel rate.  The residual
     force (measured − linear model) plotted against travel rate is an odd parabola through the origin, the
@@ -47,4 +69,6 @@ class QuadraticDamping(Effect):
     kernel = staticmethod(_kernel)
 
     def kernel_data(self):
-        return self.pack(corner_array(self, "c_v")), self.pack()
+        steps = self.p.step_force if isinstance(self.p.step_force, list) else [self.p.step_force] * self.ctx.n_cars
+        mean = np.array([1.0 if sf == "mean" else 0.0 for sf in steps]).reshape(-1, 1)  # per car
+        return self.pack(corner_array(self, "c_v"), mean), self.pack(0.0, 0.0)
