@@ -275,11 +275,11 @@ def mrac_discrete_reference(c, run, i, seen=None):
     return out
 
 
-@pytest.mark.parametrize("params", [{}, {"kappa": 0.1, "q": 1e-4},
+@pytest.mark.parametrize("params", [{}, {"kappa": 0.1, "q": 1e-4, "bias": True},
                                     {"delay_steps": 0, "u_max": 150.0, "trace_max": 0.03, "q": 1e-4}])
 def test_mrac_discrete_law(request, params):
-    """Thesis Ch. 4 law for two cars: the scenario's printed law (κ = 1, Q = 0) with its loop delay (D = 6);
-    our variant's κ = 0.1 and covariance addition; and without delay with a low force limit and a trace
+    """Thesis Ch. 4 law for two cars: the scenario's printed law (κ = 1, Q = 0, no bias) with its loop delay (D = 6);
+    our variant's κ = 0.1 and covariance addition with our bias; and without delay with a low force limit and a trace
     bound that first refuses the covariance addition (both engaged)."""
     def edit(raw):
         raw["sensors"] = [{"type": s["type"]} for s in raw["sensors"]]

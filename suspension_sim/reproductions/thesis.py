@@ -444,7 +444,7 @@ def ch4_load_step(ctx) -> ItemOutput:
     fol = {k: rms((t.body_z.to_numpy() - own_ref(k))[win(t, 1.5, 20)]) for k, t in ts.items()}
     stuck = {k: mean(t, "effect.coulomb_friction.stuck.0", 1.5, 20) for k, t in ts.items()}
     ref_size = float(np.std(ref[win(m, 1.5, 20)]))
-    after = {k: [mean(ts[k], "body_z", 20 + 2 * i, 22 + 2 * i) for i in range(5)] for k in ("mrac", "mrac_kappa_q")}
+    after = {k: [mean(ts[k], "body_z", 20 + 2 * i, 22 + 2 * i) for i in range(5)] for k in ("mrac", "mrac_bias")}
 
     def start(k):  # the first 1.5 s: peak force and mean |ΔU| per 0.01 s control step
         f_ = ts[k].actuator_force.to_numpy()[win(ts[k], 0, 1.5)]
@@ -454,8 +454,9 @@ def ch4_load_step(ctx) -> ItemOutput:
         return float(np.mean(np.abs(np.diff(ts[k].actuator_force.to_numpy()[win(ts[k], 1.5, 60)]))))
 
     # the estimates from the wrong design: distance (scaled by the nominal |Θ| per row, bias row by 1000 N) between
-    # the wrong start's Θ and the right start's Θ at the same instant, with the bias row left out
-    th_r, th_w, th_off = _ch4_theta(m), _ch4_theta(ts["wrong_design"]), _ch4_theta(ts["wrong_design_off"])
+    # the wrong start's Θ and the right start's Θ at the same instant, with the bias row left out; the wrong design
+    # carries our bias, so its right start is `mrac_bias`
+    th_r, th_w, th_off = _ch4_theta(ts["mrac_bias"]), _ch4_theta(ts["wrong_design"]), _ch4_theta(ts["wrong_design_off"])
     sc_ = np.abs(th_r[0])
     sc_[sc_ == 0] = 1000.0
     keep = np.ones(th_r.shape[1], bool)
@@ -513,20 +514,21 @@ def ch4_load_step(ctx) -> ItemOutput:
                           "mean ± s.e.", "s.d.", "min … max",
                           f"printed law `mrac`, {CH4_PRINTED_REALISATIONS} realisations: min … max"], ens_rows)
 
-    pk_m, du0_m = start("mrac")
+    pk_m, du0_m = start("mrac_bias")
     pk_k, du0_k = start("mrac_kappa")
     claims = [
         Claim("passive sag with the stops (30–40 s)", "≈ 15 cm ([CALC] 0.144 m)", f"{-z['passive']:.3f} m",
               "reproduced" if abs(z["passive"] + 0.144) < 0.025 else "not"),
-        Claim("the printed law (scenario default `mrac`: κ = 1, RLS with Q = 0) holds the level",
-              "maintains the static level (Fig. 4.4)",
+        Claim("the printed law (scenario default `mrac`: κ = 1, RLS with Q = 0, the printed φ without a constant) "
+              "holds the level", "maintains the static level (Fig. 4.4)",
               f"mean 30–40 s {z['mrac'] * 100:.1f} cm; 2-s means after the step "
               + ", ".join(f"{a * 100:.1f}" for a in after["mrac"]) + f" cm; baseline adaptation off (`mrac_off`) "
               f"{z['mrac_off'] * 100:.1f} cm, passive {z['passive'] * 100:.1f} cm",
               "reproduced" if abs(z["mrac"]) < 0.02 else "partly" if abs(z["mrac"]) < 0.5 * abs(z["mrac_off"])
               else "not",
-              "the bias (operating-point force) estimate supplies the static force, but with Q = 0 the body sticks "
-              "wherever the 1000 N friction catches it (anywhere within ±F/K = ±20 cm of the spring equilibrium)"),
+              "without a constant in φ the static force comes from Θᵀφ's output and input terms, i.e. from a level "
+              "error, and with Q = 0 the body sticks wherever the 1000 N friction catches it (anywhere within "
+              "±F/K = ±20 cm of the spring equilibrium)"),
         Claim("mean upward force, printed law", "≈ 1500 N (Fig. 4.8)",
               f"{F['mrac']:.0f} N (adaptation off {F['mrac_off']:.0f} N; 150·g = 1471 N)",
               "reproduced" if abs(F["mrac"] - 1471) < 200 else "not"),
@@ -538,11 +540,23 @@ def ch4_load_step(ctx) -> ItemOutput:
               "the 1000 N Coulomb friction locks the body to the base (road spring force ≈ 150 N); where the printed "
               "law breaks it away it does not move the body with the reference (adaptation off stays locked and "
               "passive-like)"),
-        Claim("κ = 1 (the thesis's d-step-ahead law, `mrac`) against our κ = 0.1 (`mrac_kappa`), both Q = 0",
-              "κ not in the thesis (κ = 1)",
-              f"κ = 1: level {z['mrac'] * 100:.1f} cm, force {F['mrac']:.0f} N, following {fol['mrac'] * 1000:.1f} mm, "
-              f"stuck {stuck['mrac']:.0%}, first 1.5 s peak {pk_m / 1000:.1f} kN and {du0_m:.0f} N per step, then "
-              f"{dU('mrac'):.0f} N per step; κ = 0.1: {z['mrac_kappa'] * 100:.1f} cm, {F['mrac_kappa']:.0f} N, "
+        Claim("the same law with our bias parameter (`mrac_bias`: the constant −1 in φ with the operating-point "
+              "force u0; ours, in every other adaptive variant below)", "maintains the static level, ≈ 1500 N, "
+              "follows (Figs. 4.4, 4.7, 4.8)",
+              f"level 30–40 s {z['mrac_bias'] * 100:.1f} cm (printed {z['mrac'] * 100:.1f}); 2-s means after the step "
+              + ", ".join(f"{a * 100:.1f}" for a in after["mrac_bias"]) + f" cm; force {F['mrac_bias']:.0f} N "
+              f"(printed {F['mrac']:.0f}); following {fol['mrac_bias'] * 1000:.1f} mm (printed "
+              f"{fol['mrac'] * 1000:.1f}), stuck {stuck['mrac_bias']:.0%}",
+              "partly" if abs(z["mrac_bias"]) < 0.5 * abs(z["mrac_off"]) and abs(F["mrac_bias"] - 1471) < 200
+              else "not",
+              "the bias estimate supplies the static force; the friction still holds the body low, and it follows "
+              "worse than passive"),
+        Claim("κ = 1 (the thesis's d-step-ahead law, with our bias: `mrac_bias`) against our κ = 0.1 (`mrac_kappa`, "
+              "with the bias), both Q = 0", "κ not in the thesis (κ = 1)",
+              f"κ = 1: level {z['mrac_bias'] * 100:.1f} cm, force {F['mrac_bias']:.0f} N, following "
+              f"{fol['mrac_bias'] * 1000:.1f} mm, "
+              f"stuck {stuck['mrac_bias']:.0%}, first 1.5 s peak {pk_m / 1000:.1f} kN and {du0_m:.0f} N per step, then "
+              f"{dU('mrac_bias'):.0f} N per step; κ = 0.1: {z['mrac_kappa'] * 100:.1f} cm, {F['mrac_kappa']:.0f} N, "
               f"{fol['mrac_kappa'] * 1000:.1f} mm, stuck {stuck['mrac_kappa']:.0%}, {pk_k / 1000:.1f} kN and "
               f"{du0_k:.0f} N per step, then {dU('mrac_kappa'):.0f} N per step", "n.a.",
               "κ = 1 does not ring here (the friction-locked body keeps its increments small after the start, "
@@ -557,19 +571,22 @@ def ch4_load_step(ctx) -> ItemOutput:
               "partly" if abs(eL[0]) < 0.02 and abs(eF[0] - 1471) < 200 else "not",
               "ours, not the thesis's value; chaotic: the covariance addition lets the estimates wander while "
               "friction locks the body (ensemble table)"),
-        Claim("adaptation from a stated wrong design (`wrong_design`: M* +30 %, K* −30 %, C0 +30 %, ours), printed law",
+        Claim("adaptation from a stated wrong design (`wrong_design`: M* +30 %, K* −30 %, C0 +30 %, ours), the law with "
+              "our bias (right start `mrac_bias`)",
               "estimates converge fast from their initial values (Fig. 4.6)",
               "Θ distance (scaled, bias row left out) to the right start's Θ at "
               + ", ".join(f"{t_:g}" for t_ in gap_t) + " s: " + ", ".join(f"{g:.2f}" for g in gaps)
               + f" (adaptation off stays {off_gap:.2f}); the right start's own Θ moves "
               + ", ".join(f"{d_:.2f}" for d_ in drift_r) + f" from the nominal design (the wrong start's "
               f"{travel_w:.2f} from its own); level {z['wrong_design'] * 100:.1f} cm (right start "
-              f"{z['mrac'] * 100:.1f}, adaptation off {z['wrong_design_off'] * 100:.1f}), following "
-              f"{fol['wrong_design'] * 1000:.1f} mm ({fol['mrac'] * 1000:.1f}, {fol['wrong_design_off'] * 1000:.1f})",
+              f"{z['mrac_bias'] * 100:.1f}, adaptation off {z['wrong_design_off'] * 100:.1f}), following "
+              f"{fol['wrong_design'] * 1000:.1f} mm ({fol['mrac_bias'] * 1000:.1f}, "
+              f"{fol['wrong_design_off'] * 1000:.1f})",
               "partly" if gaps[-1] < 0.5 * gaps[0] else "not",
               "the wrong start's estimates merge with the right start's (the loop forgets its initial design), but "
               "neither settles: on the friction-locked body the data do not identify Θ"),
-        Claim("mode I drifts (K −20 % over 10–50 s, C_v −50 % at 30 s: sizes ours) with the load step, printed law",
+        Claim("mode I drifts (K −20 % over 10–50 s, C_v −50 % at 30 s: sizes ours) with the load step, the law with "
+              "our bias (`drift_mrac`)",
               "robust to K(t), C_v(t) (Figs. 2.7–2.8, 4.4)",
               f"mean level 30–40 s: MRAC {z['drift_mrac'] * 100:.1f} cm, passive {z['drift_passive'] * 100:.1f} cm, "
               f"`drift_mrac_kappa_q` (ours) {z['drift_mrac_kappa_q'] * 100:.1f} cm; 42–50 s (load off, K −18 %): "
@@ -602,8 +619,9 @@ def ch4_load_step(ctx) -> ItemOutput:
         tables.insert(0, md_table(["sine amplitudes", "friction law", "reference RMS (mm)",
                                    "printed-law MRAC RMS(body − ref) (mm)", "passive (mm)"], study))
     fig, ax = plt.subplots(3, 1, figsize=(7.5, 7.5), sharex=True)
-    for k, s in (("passive", "g-"), ("mrac_off", "y-"), ("mrac", "r-"), ("mrac_kappa_q", "b-")):
-        ax[0].plot(ts[k].t, ts[k].body_z, s, lw=0.7, label=k + (" (ours)" if k == "mrac_kappa_q" else ""))
+    for k, s in (("passive", "g-"), ("mrac_off", "y-"), ("mrac", "r-"), ("mrac_bias", "m-"), ("mrac_kappa_q", "b-")):
+        ax[0].plot(ts[k].t, ts[k].body_z, s, lw=0.7, label=k + (" (ours)" if k in ("mrac_bias", "mrac_kappa_q") else
+                                                               " (printed)" if k == "mrac" else ""))
         ax[1].plot(ts[k].t, ts[k].actuator_force, s, lw=0.6)
     ax[0].plot(m.t, ref, "k:", lw=0.7, label="reference")
     ax[0].plot(m.t, m.road, "c-", lw=0.4, label="base w")
@@ -612,7 +630,7 @@ def ch4_load_step(ctx) -> ItemOutput:
     ax[1].set_ylabel("actuator force (N)")
     ax[1].set_ylim(-6000, 6000)
     tt = m.t.to_numpy()
-    for a_, b_, s, lab in ((th_w, th_r, "m-", "wrong design − right start"),
+    for a_, b_, s, lab in ((th_w, th_r, "m-", "wrong design − right start (both with our bias)"),
                            (th_r, np.broadcast_to(th_r[0], th_r.shape), "r-", "right start − nominal design"),
                            (th_off, th_r, "y--", "wrong design, adaptation off − right start")):
         ax[2].plot(tt, np.linalg.norm(((a_ - b_) / sc_)[:, keep], axis=1), s, lw=0.8, label=lab)
@@ -622,10 +640,13 @@ def ch4_load_step(ctx) -> ItemOutput:
     ax[2].set_xlabel("time (s)")
     ax[2].legend(fontsize=7)
     fig.suptitle("Thesis Ch. 4 (Figs. 4.4–4.8): discrete MRAC, 0.05 s delay, +150 kg at 20–40 s;\nprinted law "
-                 "(`mrac`: κ = 1, Q = 0), adaptation off, and ours (κ = 0.1, Q = 1e-4)", fontsize=9)
+                 "(`mrac`: κ = 1, Q = 0, no bias), adaptation off; ours: with the bias, and κ = 0.1, Q = 1e-4",
+                 fontsize=9)
     fig.tight_layout()
     key = {"passive_sag": (z["passive"], 0.01), "mrac_level": (z["mrac"], 0.01), "mrac_force": (F["mrac"], 10.0),
            "mrac_follow": (fol["mrac"], 1e-3), "off_level": (z["mrac_off"], 0.01),
+           "bias_level": (z["mrac_bias"], 0.01), "bias_force": (F["mrac_bias"], 10.0),
+           "bias_follow": (fol["mrac_bias"], 1e-3),
            "kappa_level": (z["mrac_kappa"], 0.01), "kappa_force": (F["mrac_kappa"], 10.0),
            "kappa_follow": (fol["mrac_kappa"], 1e-3), "wrong_level": (z["wrong_design"], 0.01),
            "wrong_follow": (fol["wrong_design"], 1e-3),
@@ -641,24 +662,15 @@ def ch4_load_step(ctx) -> ItemOutput:
            # statistics of the distribution less sensitive to its tails: medians and the fraction past the stops
            "q_ensemble_median_level": (mL[0], 0.01, mL[1]), "q_ensemble_median_force": (mF[0], 10.0, mF[1]),
            "q_ensemble_stops_fraction": (eB[0], 0.05, eB[1])}
-    if "mrac_no_bias" in ts:  # the printed φ (no constant −1): nothing but an output error carries the load
-        nb = "mrac_no_bias"
-        claims.append(Claim(
-            "the printed law with the printed regressor (`mrac_no_bias`: κ = 1, Q = 0, no bias parameter) holds the "
-            "level (30–40 s)", "maintains the static level, ≈ 1500 N (Figs. 4.4, 4.8)",
-            f"level {z[nb] * 100:.1f} cm, force {F[nb]:.0f} N, following {fol[nb] * 1000:.1f} mm; with our bias "
-            f"(`mrac`) {z['mrac'] * 100:.1f} cm, {F['mrac']:.0f} N; adaptation off {z['mrac_off'] * 100:.1f} cm",
-            "reproduced" if abs(z[nb]) < 0.02 and abs(F[nb] - 1471) < 200 else
-            "partly" if abs(z[nb]) < 0.5 * abs(z["mrac_off"]) else "not",
-            "without the constant the static force must come from Θᵀφ's output terms, i.e. from a level error"))
-        key.update({"no_bias_level": (z[nb], 0.01), "no_bias_force": (F[nb], 10.0)})
     notes = [HALF_NOTE,
              "Literal first: the scenario default `mrac` is the law as printed, the d-step-ahead control of Eq. 4.55 "
-             "(κ = 1) with the RLS of Eq. 4.56 at Q = 0.  Eq. 4.56 prints a covariance addition 0 ≤ Q < ∞ whose value the "
+             "(κ = 1) with the RLS of Eq. 4.56 at Q = 0 and the printed regressor φ (no constant).  Eq. 4.56 prints a covariance addition 0 ≤ Q < ∞ whose value the "
              "thesis never gives (its text says the addition keeps P high for fast re-adaptation), so Q = 0 is the "
              "printed law at the bottom of its range and Q = 1e-4 per step is our value (`mrac_kappa_q`); κ < 1 is ours.  "
-             "The bias parameter (the operating-point force u0 of the linearisation, Eq. 4.7) is our reading and is in "
-             "every variant but `mrac_no_bias` (the printed regressor, controller switch bias: false).",
+             "The bias parameter (the constant −1 in φ with the operating-point force u0 of the linearisation, Eq. 4.7) "
+             "is ours: variant `mrac_bias` (controller switch bias: true), carried by every other adaptive variant "
+             "(`mrac_kappa`, `mrac_kappa_q`, the wrong design, the drifts); adaptation off (`mrac_off`) holds a bias "
+             "at its initial 0 either way.",
              f"Ensemble (table): realisation k scales the first sine amplitude by 1 + k·{CH4_PERTURBATION:g} "
              f"(k = 0 … {CH4_REALISATIONS - 1}: ≤ {(CH4_REALISATIONS - 1) * CH4_PERTURBATION * 0.02 * 1e6:.0f} µm); the "
              f"realisations run to {CH4_ENSEMBLE_S:g} s, the end of the load step (every number of the table is read "
