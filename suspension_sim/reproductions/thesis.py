@@ -813,14 +813,42 @@ def polarity_claim(quantity, thesis, a, when_a, b, when_b) -> Claim:
                  "reproduced" if (fa < 0 < ra and rb < 0 < fb) else "not")
 
 
-PRINTED_CH7 = "the thesis's law as printed (scenario default `mimo_mrac_thesis`: the pure d-step-ahead control, κ = 1)"
+PRINTED_CH7 = ("the thesis's law as printed (scenario default `mimo_mrac_thesis`: the pure d-step-ahead control, κ = 1, "
+               "the printed φ without a constant)")
+BIAS_CH7 = "`mimo_mrac_thesis_bias`: κ = 1 with our bias parameter"
 
 
-def _only_printed_diverge(dv, allowed=("mimo_mrac_thesis", "mimo_fixed_thesis", "mimo_mrac_thesis_no_bias")):
-    """Re-raise a divergence stop of any variant but the printed laws' (their running away is a result)."""
+def _only_printed_diverge(dv, allowed=("mimo_mrac_thesis", "mimo_fixed_thesis", "mimo_mrac_thesis_bias")):
+    """Re-raise a divergence stop of any variant but the κ = 1 laws' (their running away is a result)."""
     for k, e_ in dv.items():
         if k not in allowed:
             raise e_
+
+
+def _until_stop(ctx, name, variant, e, margin=0.03):
+    """A run that stopped on the divergence check (``e``), rerun up to ``margin`` before its stop, for the figure
+    (the printed law beside ours; at the item's own step only: the half-step run draws no figure); None if not
+    run or if it still stops."""
+    if ctx.step_factor != 1.0 or e is None or e.time <= margin + 0.01:
+        return None
+    sc = ctx.variants(name, [f"sim.duration={e.time - margin:.4f}"], only=[variant])[variant]
+    try:
+        return run_each(ctx, {variant: sc}, f"{name}: {variant} until its stop")[variant].ts
+    except SimulationDiverged:
+        return None
+
+
+def _draw_until_stop(axx, ts_, col, scale, style, label, e):
+    """The printed law's trace until its divergence stop, on an axis kept at the other runs' scale."""
+    lo, hi = axx.get_ylim()
+    if ts_ is not None:
+        axx.plot(ts_.t, scale * ts_[col], style, lw=0.8, label=label)
+    if e is not None:
+        axx.axvline(e.time, color=style[0], ls=":", lw=0.8)
+        axx.text(0.99, 0.03 + 0.08 * len(axx.texts), f"{label}: diverges at {e.time:.3g} s", transform=axx.transAxes,
+                 fontsize=7, color=style[0], ha="right", va="bottom", zorder=6,
+                 bbox={"facecolor": "white", "edgecolor": "none", "alpha": 0.8, "pad": 1})
+    axx.set_ylim(lo, hi)
 
 
 def _ring(ts):
@@ -858,25 +886,31 @@ def ch7_braking(ctx) -> ItemOutput:
     ]
     if key:
         claims.append(Claim(f"{PRINTED_CH7} eliminates the dive", "dive \"mostly eliminated\"", printed, ok_p,
-                            "the rows below are our κ = 0.2 (`mimo_mrac` and the other variants): the κ = 1 law "
-                            "cancels the sampling zero near z = −1 and rings at the Nyquist frequency"))
-    nbv = [k for k in ("mimo_mrac_no_bias", "mimo_mrac_thesis_no_bias") if k in ts or k in dv]
-    if nbv:  # the printed regressor (no constant −1): no parameter carries the manoeuvre moment
-        def nb_text(k):
-            if k in dv:
-                return f"`{k}` diverges at {dv[k].time:.2f} s"
-            return (f"`{k}` peak |pitch| {pk[k]:.2f}°, 4–9 s max "
-                    f"{np.degrees(np.max(np.abs(ts[k].pitch.to_numpy()[win(ts[k], 4, 9)]))):.2f}°")
-        ok_nb = "mimo_mrac_no_bias" in ts and pk["mimo_mrac_no_bias"] < 0.2 * pk["passive"]
+                            "the rows below are ours (κ = 0.2 with the bias parameter: `mimo_mrac` and the other "
+                            "variants): the κ = 1 law cancels the sampling zero near z = −1 and rings at the Nyquist "
+                            "frequency"))
+    if "mimo_mrac_thesis_bias" in dv or "mimo_mrac_thesis_bias" in ts:
+        if "mimo_mrac_thesis_bias" in dv:
+            got_b, ok_b = "diverges: " + diverged_text(dv["mimo_mrac_thesis_bias"]), "not"
+            key["thesis_bias_stop_s"] = (float(dv["mimo_mrac_thesis_bias"].time), 0.01)
+        else:
+            got_b = f"ran to the end: peak |pitch| {pk['mimo_mrac_thesis_bias']:.2f}°"
+            ok_b = "reproduced" if pk["mimo_mrac_thesis_bias"] < 0.2 * pk["passive"] else "not"
+        claims.append(Claim(f"{BIAS_CH7} (ours) eliminates the dive", "dive \"mostly eliminated\"", got_b, ok_b,
+                            "the bias carries the manoeuvre moment (the printed law, without it, runs away sooner); "
+                            "κ = 1 still rings"))
+    if "mimo_mrac_no_bias" in ts:  # κ = 0.2 with the printed regressor: no parameter carries the manoeuvre moment
+        nb = "mimo_mrac_no_bias"
+        ok_nb = pk[nb] < 0.2 * pk["passive"]
         claims.append(Claim(
-            "without the bias parameter (the printed φ, `bias: false`): κ = 0.2 (`mimo_mrac_no_bias`) and κ = 1 "
-            "(`mimo_mrac_thesis_no_bias`) eliminate the dive", "dive \"mostly eliminated\"",
-            "; ".join(nb_text(k) for k in nbv) + f"; with our bias (`mimo_mrac`) {pk['mimo_mrac']:.2f}°, passive "
-            f"{pk['passive']:.2f}°", "reproduced" if ok_nb else "not",
+            "κ = 0.2 (ours) without the bias parameter (the printed φ, `mimo_mrac_no_bias`) eliminates the dive",
+            "dive \"mostly eliminated\"",
+            f"peak |pitch| {pk[nb]:.2f}°, 4–9 s max "
+            f"{np.degrees(np.max(np.abs(ts[nb].pitch.to_numpy()[win(ts[nb], 4, 9)]))):.2f}°; with our bias "
+            f"(`mimo_mrac`) {pk['mimo_mrac']:.2f}°, passive {pk['passive']:.2f}°", "reproduced" if ok_nb else "not",
             "our bias (the operating-point force) carries the manoeuvre moment; without it the κ = 0.2 blend (an "
-            "integrator on U) still holds the squat, but the loop bursts after the braking; κ = 1 runs away"))
-        if "mimo_mrac_no_bias" in ts:
-            key["no_bias_pitch_deg"] = (pk["mimo_mrac_no_bias"], 0.1)
+            "integrator on U) still holds the squat, but the loop bursts after the braking"))
+        key["no_bias_pitch_deg"] = (pk[nb], 0.1)
     claims += [
         Claim("MIMO MRAC (ours: κ = 0.2) eliminates the dive", "dive \"mostly eliminated\"",
               f"peak |pitch| {pk['mimo_mrac']:.2f}° vs passive {pk['passive']:.2f}° "
@@ -913,13 +947,24 @@ def ch7_braking(ctx) -> ItemOutput:
         ax[1].plot(ts[k].t, 1000 * ts[k].body_z, s, lw=0.8)
     ax[2].plot(ts["mimo_mrac"].t, ts["mimo_mrac"].actuator_force_front, "b-", lw=0.8, label="front")
     ax[2].plot(ts["mimo_mrac"].t, ts["mimo_mrac"].actuator_force_rear, "m-", lw=0.8, label="rear")
+    # the printed law (κ = 1, no bias) and κ = 1 with our bias, each until its divergence stop
+    for k, s in (("mimo_mrac_thesis", "k-"), ("mimo_mrac_thesis_bias", "c-")):
+        lab = "printed (κ = 1, no bias)" if k == "mimo_mrac_thesis" else "κ = 1 + our bias"
+        if k in ts:
+            ax[0].plot(ts[k].t, np.degrees(ts[k].pitch), s, lw=0.8, label=lab)
+        elif k in dv:
+            tk = _until_stop(ctx, "thesis_ch7_braking", k, dv[k])
+            _draw_until_stop(ax[0], tk, "pitch", 180 / np.pi, s, lab, dv[k])
+            _draw_until_stop(ax[1], tk, "body_z", 1000.0, s, lab, None)
     ax[0].set_ylabel("pitch (°, nose down +)")
     ax[0].legend(fontsize=7, ncol=2)
     ax[1].set_ylabel("bounce (mm)")
     ax[2].set_ylabel("MRAC force (N)")
     ax[2].legend(fontsize=7)
     ax[2].set_xlabel("time (s)")
-    fig.suptitle("Thesis Ch. 7: accelerate 4 m/s² (1–9 s), brake 7 m/s² (9–11 s)", fontsize=9)
+    fig.suptitle("Thesis Ch. 7: accelerate 4 m/s² (1–9 s), brake 7 m/s² (9–11 s); the printed law (κ = 1, no bias) "
+                 "until it runs away,\nours (`mimo_mrac`: κ = 0.2 with the bias) on the thesis's and an asymmetric car",
+                 fontsize=9)
     fig.tight_layout()
     key.update({"passive_dive_deg": (dive, 0.1), "mrac_pitch_deg": (pk["mimo_mrac"], 0.1),
                 "asym_passive_bounce": (zb["asym_passive"], 1e-3), "asym_mrac_bounce": (zb["asym_mimo_mrac"], 1e-3)})
@@ -1004,7 +1049,7 @@ def ch7_road(ctx) -> ItemOutput:
                        a, "22–28 s", b, "40.3–42 s"),
     ]
     key = {}
-    if any(k in ts or k in dv for k in ("mimo_mrac_thesis", "mimo_fixed_thesis")):
+    if any(k in ts or k in dv for k in ("mimo_mrac_thesis", "mimo_fixed_thesis", "mimo_mrac_thesis_bias")):
         def printed(k):
             if k in dv:  # (no key: the stop time of the runaway depends on the step, the page gives both)
                 return "diverges: " + diverged_text(dv[k])
@@ -1017,14 +1062,15 @@ def ch7_road(ctx) -> ItemOutput:
                     f"{up / 1000:.1f} kN")
         du_o, up_o = _ring(m)
         claims.insert(1, Claim(
-            f"{PRINTED_CH7}, and the same with adaptation off (`mimo_fixed_thesis`)",
+            f"{PRINTED_CH7}, the same with adaptation off (`mimo_fixed_thesis`), and with our bias ({BIAS_CH7})",
             "adapts within 4 s, follows the reference, dive removed",
-            f"adaptive: {printed('mimo_mrac_thesis')}; adaptation off: {printed('mimo_fixed_thesis')}; ours (κ = 0.2, "
+            f"adaptive: {printed('mimo_mrac_thesis')}; adaptation off: {printed('mimo_fixed_thesis')}; with our bias: "
+            f"{printed('mimo_mrac_thesis_bias')}; ours (κ = 0.2 with the bias, "
             f"`mimo_mrac`): mean |ΔU| {du_o:.0f} N per step, peak |U| {up_o / 1000:.1f} kN",
             "not" if "mimo_mrac_thesis" in dv or "mimo_mrac_thesis" not in ts
             or e["mimo_mrac_thesis"]["body_z"] > 0.2 * e["passive"]["body_z"] else "reproduced",
             "the pure d-step-ahead law cancels the sampling zero near z = −1 (thesis_common.DiscreteMRAC); the other "
-            "rows are our κ = 0.2"))
+            "rows are ours (κ = 0.2 with the bias)"))
     if "mimo_mrac_no_bias" in ts:  # the printed regressor (no constant −1), κ = 0.2
         nb = "mimo_mrac_no_bias"
         claims.append(Claim(
@@ -1070,6 +1116,10 @@ def ch7_road(ctx) -> ItemOutput:
         ax[1].plot(ts[k].t, np.degrees(ts[k].pitch), s_, lw=0.5)
     ax[0].plot(m.t, 1000 * ref.body_z, "k:", lw=0.7, label="reference")
     ax[1].plot(m.t, np.degrees(ref.pitch), "k:", lw=0.7)
+    if "mimo_mrac_thesis" in dv:  # the printed law (κ = 1, no bias) until its divergence stop
+        tp = _until_stop(ctx, "thesis_ch7_road", "mimo_mrac_thesis", dv["mimo_mrac_thesis"])
+        _draw_until_stop(ax[0], tp, "body_z", 1000.0, "c-", "printed (κ = 1, no bias)", dv["mimo_mrac_thesis"])
+        _draw_until_stop(ax[1], tp, "pitch", 180 / np.pi, "c-", "printed", None)
     ax[2].plot(m.t, m.actuator_force_front, "b-", lw=0.5, label="front (leading)")
     ax[2].plot(m.t, m.actuator_force_rear, "m-", lw=0.5, label="rear (trailing)")
     ax[0].set_ylabel("bounce (mm)")
@@ -1157,7 +1207,7 @@ def ch7_dirt(ctx) -> ItemOutput:
     div = {}  # the probing IV variant may run away (page), and the printed κ = 1 law (a result)
     res = run_each(ctx, ctx.variants("thesis_ch7_dirt"), "thesis_ch7_dirt", diverged=div)
     for k, e_ in div.items():
-        if "probe" not in k and k not in ("mimo_mrac_thesis", "mimo_mrac_no_bias"):
+        if "probe" not in k and k not in ("mimo_mrac_thesis", "mimo_mrac_thesis_bias", "mimo_mrac_no_bias"):
             raise e_
     ts = {k: r.ts for k, r in res.items()}
     m = ts["mimo_mrac"]
@@ -1202,8 +1252,10 @@ def ch7_dirt(ctx) -> ItemOutput:
                      f"{up / 1000:.1f} kN")
             ok_p = "reproduced" if ep_ < min(0.5 * e["passive"]["body_z"], e["mimo_fixed"]["body_z"]) else "not"
             pkey["printed_bounce_err"] = (ep_, 1e-3)
+        if "mimo_mrac_thesis_bias" in div:  # (no key: as above)
+            got_p += f"; with our bias ({BIAS_CH7}): diverges at {div['mimo_mrac_thesis_bias'].time:.2f} s"
         claims.append(Claim(PRINTED_CH7, "adapts within 4 s, follows closely throughout (Fig. 7.8)", got_p, ok_p,
-                            "the rows below are our κ = 0.2"))
+                            "the rows below are ours (κ = 0.2 with the bias)"))
     if "mimo_mrac_no_bias" in ts or "mimo_mrac_no_bias" in div:
         if "mimo_mrac_no_bias" in div:
             got_nb = f"diverges at {div['mimo_mrac_no_bias'].time:.2f} s"
@@ -1328,6 +1380,9 @@ def ch7_dirt(ctx) -> ItemOutput:
     for k, s_ in (("passive", "g-"), ("mimo_fixed", "b-"), ("mimo_mrac", "r-"), ("mimo_mrac_q0", "m-")):
         ax[0, 0].plot(ts[k].t, 1000 * ts[k].body_z, s_, lw=0.4, label=k)
     ax[0, 0].plot(m.t, 1000 * ref.body_z, "k:", lw=0.6, label="reference")
+    if "mimo_mrac_thesis" in div:  # the printed law (κ = 1, no bias) until its divergence stop
+        _draw_until_stop(ax[0, 0], _until_stop(ctx, "thesis_ch7_dirt", "mimo_mrac_thesis", div["mimo_mrac_thesis"]),
+                         "body_z", 1000.0, "c-", "printed (κ = 1, no bias)", div["mimo_mrac_thesis"])
     ax[0, 0].set_ylabel("bounce (mm)")
     ax[0, 0].set_xlabel("time (s)")
     ax[0, 0].legend(fontsize=6, ncol=2)
@@ -1841,8 +1896,15 @@ def ch6(ctx) -> ItemOutput:
                                 "reproduced" if up > us else "not"))
             key["sine_drift_err_after"] = (after["adaptive"], 1e-3)
         for k, s_ in (("passive", "g-"), ("nonadaptive", "b:"), ("adaptive", "r-")):
-            ax[i].plot(ts[k].t, 1000 * ts[k].travel_secondary, s_, lw=0.6, label=k)
+            ax[i].plot(ts[k].t, 1000 * ts[k].travel_secondary, s_, lw=0.6, label=k + (" (ours)" if k == "adaptive"
+                                                                                       else ""))
         ax[i].plot(a.t, 1000 * a["ctrl.ref_z.0"], "k--", lw=0.6, label="reference")
+        if "adaptive_thesis" in ts:  # the printed laws beside ours; until their divergence stop where they run away
+            ax[i].plot(ts["adaptive_thesis"].t, 1000 * ts["adaptive_thesis"].travel_secondary, "c-", lw=0.6,
+                       label="printed")
+        elif "adaptive_thesis" in dv:
+            _draw_until_stop(ax[i], _until_stop(ctx, name, "adaptive_thesis", dv["adaptive_thesis"]),
+                             "travel_secondary", 1000.0, "c-", "printed", dv["adaptive_thesis"])
         ax[i].set_ylabel(f"{short}: sec. travel (mm)", fontsize=8)
         ax[i].legend(fontsize=7, ncol=4)
         if short == "random":
@@ -1851,7 +1913,8 @@ def ch6(ctx) -> ItemOutput:
             ax[i].set_xlim(10, 16)
     ax[-1].set_xlabel("time (s)")
     fig.suptitle("Thesis Ch. 6: 2-DOF bounce model, MDOF adaptive control (Figs. 6.8–6.14); bump and sine with "
-                 "the mode I drifts", fontsize=9)
+                 "the mode I drifts;\nthe printed laws (`adaptive_thesis`, until their divergence stop) beside ours "
+                 "(`adaptive`)", fontsize=9)
     fig.tight_layout()
     table = md_table(["road", "quantity (RMS, mm)", "reference", "adaptive", "non-adaptive (α = β = 0)", "passive"],
                       rows)
