@@ -845,7 +845,7 @@ def _draw_until_stop(axx, ts_, col, scale, style, label, e):
         axx.plot(ts_.t, scale * ts_[col], style, lw=0.8, label=label)
     if e is not None:
         axx.axvline(e.time, color=style[0], ls=":", lw=0.8)
-        axx.text(0.99, 0.03 + 0.08 * len(axx.texts), f"{label}: diverges at {e.time:.3g} s", transform=axx.transAxes,
+        axx.text(0.99, 0.03 + 0.08 * len(axx.texts), f"{label}: diverges at {e.time:.4g} s", transform=axx.transAxes,
                  fontsize=7, color=style[0], ha="right", va="bottom", zorder=6,
                  bbox={"facecolor": "white", "edgecolor": "none", "alpha": 0.8, "pad": 1})
     axx.set_ylim(lo, hi)
@@ -962,9 +962,8 @@ def ch7_braking(ctx) -> ItemOutput:
     ax[2].set_ylabel("MRAC force (N)")
     ax[2].legend(fontsize=7)
     ax[2].set_xlabel("time (s)")
-    fig.suptitle("Thesis Ch. 7: accelerate 4 m/s² (1–9 s), brake 7 m/s² (9–11 s); the printed law (κ = 1, no bias) "
-                 "until it runs away,\nours (`mimo_mrac`: κ = 0.2 with the bias) on the thesis's and an asymmetric car",
-                 fontsize=9)
+    fig.suptitle("Thesis Ch. 7: accelerate 4 m/s² (1–9 s), brake 7 m/s² (9–11 s);\nthe printed law (κ = 1, no bias) "
+                 "until it runs away; ours: κ = 0.2 with the bias (`mimo_mrac`)", fontsize=9)
     fig.tight_layout()
     key.update({"passive_dive_deg": (dive, 0.1), "mrac_pitch_deg": (pk["mimo_mrac"], 0.1),
                 "asym_passive_bounce": (zb["asym_passive"], 1e-3), "asym_mrac_bounce": (zb["asym_mimo_mrac"], 1e-3)})
@@ -1912,9 +1911,8 @@ def ch6(ctx) -> ItemOutput:
         if short == "sine":
             ax[i].set_xlim(10, 16)
     ax[-1].set_xlabel("time (s)")
-    fig.suptitle("Thesis Ch. 6: 2-DOF bounce model, MDOF adaptive control (Figs. 6.8–6.14); bump and sine with "
-                 "the mode I drifts;\nthe printed laws (`adaptive_thesis`, until their divergence stop) beside ours "
-                 "(`adaptive`)", fontsize=9)
+    fig.suptitle("Thesis Ch. 6: 2-DOF bounce model, MDOF adaptive control (Figs. 6.8–6.14);\nbump and sine with "
+                 "the mode I drifts; the printed laws until their divergence stop", fontsize=9)
     fig.tight_layout()
     table = md_table(["road", "quantity (RMS, mm)", "reference", "adaptive", "non-adaptive (α = β = 0)", "passive"],
                       rows)
