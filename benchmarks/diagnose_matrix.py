@@ -54,6 +54,8 @@ def case(name, rng):
         return {name: {"force": U(100, 300), "x_y": U(0.001, 0.003)}}, {}, 0.01, 0.0, [name]
     if name == "backlash":
         return {name: {"stiffness": U(5000, 12000), "play": U(0.001, 0.003)}}, {}, 0.01, 0.0, [name]
+    if name == "maxwell_damper":  # the damper (1000 N·s/m) on a mount with its corner at 4-10 Hz
+        return {name: {"compliance": 1.0 / (2 * np.pi * U(4.0, 10.0) * 1000.0)}}, {}, 0.01, 0.0, [name]
     if name == "parameter:sprung_mass":
         return {}, {"sprung_mass": 290 * U(1.1, 1.25)}, 0.01, 0.0, [name]
     if name == "none":
@@ -66,7 +68,8 @@ def case(name, rng):
 
 CASES = ["coulomb_friction", "quadratic_damping", "asymmetric_damping", "bump_stop", "bump_stop_compression",
          "cubic_stiffness",
-         "tire_liftoff", "actuator_delay", "actuator_lag", "hysteresis", "backlash", "parameter:sprung_mass", "none",
+         "tire_liftoff", "actuator_delay", "actuator_lag", "hysteresis", "backlash", "maxwell_damper",
+         "parameter:sprung_mass", "none",
          "two:coulomb+cubic"]
 
 
