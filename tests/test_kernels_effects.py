@@ -326,6 +326,7 @@ ENSEMBLES = {
     "tire_liftoff": [{}, {}, {}],
     "varying_stiffness": [{"amplitude": 2000.0, "frequency": 1.5}, {"offset": [100.0, -300.0]},
                           {"amplitude": 500.0, "frequency": 3.0, "phase": 1.0}],
+    "maxwell_damper": [{"compliance": 5e-6}, {"compliance": [1e-6, 2e-5]}, {"compliance": 0.0}],
 }
 
 
@@ -382,6 +383,7 @@ ALL_EFFECTS = [
     {"type": "backlash", "params": {"stiffness": 3000.0, "play": 0.002}},
     {"type": "varying_stiffness", "params": {"amplitude": 2000.0, "frequency": 1.0, "offset": 100.0}},
     {"type": "tire_liftoff", "params": {}},
+    {"type": "maxwell_damper", "params": {"compliance": 2e-5}},
 ]
 
 

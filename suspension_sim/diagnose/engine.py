@@ -28,6 +28,7 @@ prescribed displacement and rate.
 """
 from __future__ import annotations
 
+import dataclasses
 import threading
 
 import numba
@@ -403,7 +404,10 @@ class Engine:
                                 v = [v if cn in corners else 0.0 for cn in corner_names]
                             d[pn] = v
                 plist.append(validate_params(ecls.Params, d, f"effect {etype}"))
-            new.append((ecls(stack_params(plist, len(sel)), old.ctx), sel))
+            # the effect's context with this run's linear damping of its corners (each set's own, written by
+            # _write_vehicle: a law of the car's damper, maxwell_damper, is that set's damper)
+            ctx = dataclasses.replace(old.ctx, damping=np.ascontiguousarray(sim.plant.susp_c[:, sel], dtype=float))
+            new.append((ecls(stack_params(plist, len(sel)), ctx), sel))
         sim.effects = new
         acls = ACTUATORS.get("ideal")
         ap = [validate_params(acls.Params, {"time_constant": max(float(Pd.get("actuator.time_constant", 0.0)), 0.0)},
@@ -722,7 +726,10 @@ def structure_key(kind: str, effects: list) -> tuple:
 def effect_force(effects: list, P: dict, s: np.ndarray, v: np.ndarray, dt: float) -> np.ndarray:
     """Sum of the effects' forces (their kernels) along a prescribed travel ``s`` and rate ``v``, for one
     parameter set (``effects``: (label, type, corners, fixed) as for :class:`Engine`)."""
+    # the damper element's force is −(−c·v + Σ effects): run with the set's damping (a law of the car's damper,
+    # maxwell_damper, reads it) and take the linear c·v back out
+    c = float(P.get("damping", 0.0))
     eng = Engine("damper", {"disp": np.asarray(s, float), "vel": np.asarray(v, float)}, dt, effects,
-                 {"spring_stiffness": 0.0, "damping": 0.0})
-    Pd = {**P, "spring_stiffness": 0.0, "damping": 0.0}
-    return -eng.run([Pd])[0, :, 0]
+                 {"spring_stiffness": 0.0, "damping": c})
+    Pd = {**P, "spring_stiffness": 0.0, "damping": c}
+    return -eng.run([Pd])[0, :, 0] + c * np.asarray(v, float)

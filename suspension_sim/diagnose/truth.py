@@ -114,6 +114,8 @@ def simulate_truth(kind: str, duration: float, fs: float, effects: dict, params:
     lift = "tire_liftoff" in eff
 
     if kind == "damper":
+        if "maxwell_damper" in eff:
+            raise ValueError("the damper-element truth does not implement maxwell_damper")
         amp = road_rms if road_rms > 0 else 0.02
         d, dd = random_signal(rng, duration, 0.2, 5.0, amp)
         s, v = d(t), dd(t)
@@ -143,16 +145,21 @@ def simulate_truth(kind: str, duration: float, fs: float, effects: dict, params:
         def u_act(tt):
             return float(force(tt - delay)) if tt - delay >= 0 else float(force(0.0))
 
-        # state: zs, vs, zu, vu, w (Bouc–Wen), y (backlash), Fa (lag)
+        # a Maxwell damper (maxwell_damper {compliance h}): the damper c in series with a spring 1/h, its force R
+        # obeying dR/dt = (v − R/c)/h, in place of the damper's c·v
+        hm = eff.get("maxwell_damper", {}).get("compliance", 0.0)
+
+        # state: zs, vs, zu, vu, w (Bouc–Wen), y (backlash), Fa (lag), R (the Maxwell damper's force)
         def rhs(tt, x):
-            zs, vs, zu, vu, w, yb, Fa = x
+            zs, vs, zu, vu, w, yb, Fa, R = x
             r, rd = float(road(tt)), float(roadd(tt))
             if qc:
                 s, v = zs - zu, vs - vu
             else:
                 s, v = zs - r, vs - rd
             Fact = Fa if tau > 0 else u_act(tt)
-            F = -k * s - c * v + _suspension_extra(eff, s, v, {"w": w, "y": yb}) + Fact
+            F = -k * s - (R if hm > 0 else c * v) + _suspension_extra(eff, s, v, {"w": w, "y": yb}) + Fact
+            dR = (v - R / c) / hm if hm > 0 else 0.0
             dw = 0.0
             if "hysteresis" in eff:
                 dw = v / eff["hysteresis"]["x_y"] * (1 - abs(w) * (1.0 if v * w > 0 else 0.0))
@@ -166,10 +173,10 @@ def simulate_truth(kind: str, duration: float, fs: float, effects: dict, params:
                 Ft_tot = Fst - kt * (zu - r) - ct * (vu - rd)
                 if lift:
                     Ft_tot = max(Ft_tot, 0.0)
-                return [vs, F / ms, vu, (-F + Ft_tot - Fst) / mu, dw, dy, dFa]
-            return [vs, F / ms, 0.0, 0.0, dw, dy, dFa]
+                return [vs, F / ms, vu, (-F + Ft_tot - Fst) / mu, dw, dy, dFa, dR]
+            return [vs, F / ms, 0.0, 0.0, dw, dy, dFa, dR]
 
-        x0 = [0, 0, 0, 0, 0, 0, u_act(0.0)]
+        x0 = [0, 0, 0, 0, 0, 0, u_act(0.0), 0.0]
         sol = solve_ivp(rhs, (0, t[-1]), x0, t_eval=t, method="DOP853", rtol=1e-7, atol=1e-10, max_step=5.0 / fs)
         X = sol.y
         acc = np.array([rhs(tt, X[:, i]) for i, tt in enumerate(t)])
