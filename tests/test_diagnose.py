@@ -563,3 +563,37 @@ def test_cli_diagnose_and_bad_data(tmp_path):
     r = CliRunner().invoke(app, ["diagnose", str(tmp_path / "bad.csv"), "--model", str(tmp_path / "m.yaml"), "--out",
                                  str(tmp_path / "o2"), "--map", "t_s=time", "--map", "x_mm=disp*0.001", "--map", "F=force"])
     assert r.exit_code == 2 and "missing/NaN" in r.output and "Traceback" not in r.output
+
+
+def test_a_heavier_car_zeroed_at_its_own_equilibrium_is_named_by_its_mass():
+    """Rule (g)'s joint explanation: a car 14 % heavier whose travel reads zero at its own equilibrium (the sag
+    is not in the record: re-levelled, or zeroed where it settled), while the model says ``position_zero:
+    nominal`` (the default).  A freed sprung mass fitted plainly must carry a sag the record does not show
+    (indistinguishable from its stated value there), so a stiffness stood in for it (diagnose_matrix's
+    parameter:sprung_mass).  Fitted beside a free travel offset (the offset pays log n in the BIC) it wins by
+    training BIC, passes the gate and beats the offsets alone: the mass is named, and the report says the
+    positions appear measured from the car's own equilibrium (the offset is the nominal-zero sag,
+    40 kg · g / k = 23.3 mm).  Baseline (the joint fit off): the mass is not named."""
+    from suspension_sim.diagnose.model import load_model
+    from suspension_sim.diagnose.report import verdict
+    from suspension_sim.diagnose.select import Selector
+
+    out = ["body_acc", "susp_travel"]
+    d = truth.simulate_truth("quarter_car", 4, 1000, {}, params={"sprung_mass": 330.0}, seed=5, road_rms=0.01,
+                             noise=0.02, outputs=out)
+    rec = record_from_arrays("quarter_car", d["time"], {"road": d["road"]}, {k: d[k] for k in out})
+    runs = {}
+    for joint in (False, True):
+        sel = Selector(rec, load_model(QC), workers=1, max_effects=1, candidates=["parameter"])
+        sel.joint_zero = joint
+        runs[joint] = sel.run()
+    base, D = runs[False], runs[True]
+    assert "parameter:sprung_mass" not in [c.name for c, _, _ in base.added] and base.own_equilibrium is None
+    assert [c.name for c, _, _ in D.added] == ["parameter:sprung_mass"] and D.sensor_zero is None
+    assert abs(D.final.params["sprung_mass"] - 330.0) < 0.01 * 330.0
+    assert abs(D.own_equilibrium["offsets"]["susp_travel"] - 40.0 * 9.81 / 16812.0) < 1e-3
+    assert D.final.spec.position_zero == "measured"
+    tr = next(t for t in D.trials if t.name == "parameter:sprung_mass" and t.round == 1)
+    assert tr.kept and tr.own_zero["bic"] < tr.own_zero["bic_plain"]
+    assert "own equilibrium (offsets susp_travel +23" in verdict(D, [{"name": "parameter:sprung_mass"}], *[
+        {"test": {"x": v}} for v in (0.2, 0.02)])

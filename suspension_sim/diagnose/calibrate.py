@@ -66,13 +66,20 @@ class Problem:
         k = (max(tire) if tire else 0.0) + (max(spring) if spring else 0.0)
         return float(np.sqrt(max(k, 0.0) / min(masses)))
 
-    def set_offsets(self, spec: ModelSpec):
-        """Channels with a free offset: non-position channels (sensor bias) unless ``offsets: false``; the
-        position channels when they are zeroed at the measured ride height."""
-        self.offset_mask = np.array([(spec.position_zero == "measured") if is_position(c) else spec.offsets
-                                     for c in self.channels], bool)
+    def mask(self, spec: ModelSpec) -> np.ndarray:
+        """Channels with a free offset under ``spec``: non-position channels (sensor bias) unless ``offsets:
+        false``; the position channels when they are zeroed at the measured ride height (``position_zero:
+        measured``).  A fit reads it from its own spec, so models with and without free position offsets can
+        be fitted side by side on one problem (the joint fit of a sag-moving parameter, select.py rule (g))."""
+        m = np.array([(spec.position_zero == "measured") if is_position(c) else spec.offsets
+                      for c in self.channels], bool)
         if self.kind == "damper":
-            self.offset_mask[:] = spec.offsets
+            m[:] = spec.offsets
+        return m
+
+    def set_offsets(self, spec: ModelSpec):
+        """The problem's default offset mask (:meth:`mask`; used where no spec is given: reports, ``nrmse``)."""
+        self.offset_mask = self.mask(spec)
 
     def engine(self, spec: ModelSpec) -> Engine:
         from .engine import structure_key
@@ -159,11 +166,12 @@ class Problem:
                                     outputs=self.channels)
         return out[:, :, self.col]
 
-    def fit_offsets(self, sim, a: int, b: int) -> np.ndarray:
-        """The free offsets (added to the simulation) that match the data on [a, b) in the mean."""
+    def fit_offsets(self, sim, a: int, b: int, mask=None) -> np.ndarray:
+        """The free offsets (added to the simulation) that match the data on [a, b) in the mean (``mask``: the
+        channels with one, default the problem's :attr:`offset_mask`)."""
         a = max(a, self.skip)
         o = np.mean(self.Y[a:b] - sim[a:b], axis=0)
-        return np.where(self.offset_mask, o, 0.0)
+        return np.where(self.offset_mask if mask is None else mask, o, 0.0)
 
     def nrmse(self, sim, a: int, b: int, offsets=None) -> dict[str, float]:
         a = max(a, self.skip)
@@ -190,6 +198,7 @@ class FitResult:
     nfev: int = 0
     success: bool = True
     offsets: np.ndarray | None = None  # free channel offsets fitted on the training window
+    n_offsets: int = 0  # how many channel offsets were free (each a parameter of the BIC / AIC)
     corr: np.ndarray | None = None  # correlation matrix of the free parameters' estimates (spec.free order)
     # the whole-record simulation of this fit per Problem (:meth:`simulated`)
     _sims: dict = field(default_factory=dict, repr=False, compare=False)
@@ -218,16 +227,19 @@ class FitResult:
         return {f.name: float(v) for f, v in zip(self.spec.free, self.x)}
 
     def bic(self) -> float:
-        return self.n * np.log(max(self.cost, 1e-300)) + len(self.x) * np.log(self.n)
+        """n·log(cost) + k·log n, k = the free parameters and the free channel offsets (eliminated in closed
+        form, but fitted all the same: a model with free position offsets pays log n for each, select.py
+        rule (g))."""
+        return self.n * np.log(max(self.cost, 1e-300)) + (len(self.x) + self.n_offsets) * np.log(self.n)
 
     def aic(self) -> float:
-        return self.n * np.log(max(self.cost, 1e-300)) + 2 * len(self.x)
+        return self.n * np.log(max(self.cost, 1e-300)) + 2 * (len(self.x) + self.n_offsets)
 
 
 def _residual_fn(prob: Problem, spec: ModelSpec, a: int, b: int, xs):
     w = 1.0 / (prob.scale * np.sqrt((b - max(a, prob.skip)) * len(prob.channels)))
     a = max(a, prob.skip)
-    mask = prob.offset_mask
+    mask = prob.mask(spec)
 
     def resid_of(sim):
         e = sim[a:b] - prob.Y[a:b]
@@ -268,11 +280,13 @@ def _residual_fn(prob: Problem, spec: ModelSpec, a: int, b: int, xs):
 def fit(prob: Problem, spec: ModelSpec, a: int, b: int, starts: list[np.ndarray] | None = None,
         max_nfev: int = 60) -> FitResult:
     """Fit ``spec``'s free parameters on samples [a, b) (simulating from sample 0)."""
+    mask = prob.mask(spec)
     if not spec.free:
         sim = prob.simulate(spec, spec.P, 0, b)
-        cost = float(np.mean(np.square(list(prob.nrmse(sim, a, b).values()))))
+        cost = float(np.mean(np.square(list(prob.nrmse(sim, a, b, offsets=prob.fit_offsets(sim, a, b, mask))
+                                            .values()))))
         return FitResult(spec, np.zeros(0), dict(spec.P), cost, b - max(a, prob.skip),
-                         offsets=prob.fit_offsets(sim, a, b))
+                         offsets=prob.fit_offsets(sim, a, b, mask), n_offsets=int(mask.sum()))
     xs = np.array([max(f.scale, 1e-12) for f in spec.free])
     lo = np.array([f.lo for f in spec.free]) / xs
     hi = np.array([f.hi for f in spec.free]) / xs
@@ -320,7 +334,7 @@ def fit(prob: Problem, spec: ModelSpec, a: int, b: int, starts: list[np.ndarray]
     cost = float(2 * best.cost)  # = mean NRMSE² over channels (residuals are pre-normalised)
     P = spec.vector(x)
     out = FitResult(spec, x, P, cost / 1.0, n, nfev=best.nfev, success=best.success,
-                    offsets=prob.fit_offsets(prob.simulate(spec, P, 0, b), a, b))
+                    offsets=prob.fit_offsets(prob.simulate(spec, P, 0, b), a, b, mask), n_offsets=int(mask.sum()))
     # covariance: residuals r_i = e_i * w; sigma² per normalised residual
     J = best.jac * 1.0
     nres = r.size

@@ -284,6 +284,7 @@ def build_report(D: Diagnosis, out: Path, confirm: bool = True, plots: bool = Tr
         "verdict": verdict(D, effects, before, after),
         "unexplained_x_floor": D.unexplained,
         "sensor_zero": D.sensor_zero,
+        "own_equilibrium": D.own_equilibrium,
         "proposal": D.proposal,
         "not_separable": not_separable(D),
     }
@@ -343,6 +344,10 @@ def verdict(D, effects, before, after) -> str:
                  + ", ".join(f"{c} reads {1e3 * o:+.2f} mm there" for c, o in z["offsets"].items())
                  + " (a free sensor offset explained the record better than "
                  + ", ".join(b["candidate"] for b in z["beats"]) + " by training BIC; the offsets are now fitted).")
+    if D.own_equilibrium:  # rule (g)'s joint explanation: a sag-moving parameter beside free position offsets
+        tail += (" The positions appear measured from the car's own equilibrium (offsets "
+                 + ", ".join(f"{c} {1e3 * o:+.2f} mm" for c, o in D.own_equilibrium["offsets"].items())
+                 + ": the changed mass's sag is not in the record; the offsets are now fitted).")
     if pairs:
         tail += " Not separable on this record: " + ", ".join(f"{c} vs the fitted {p}" for c, p in pairs) + \
                 " (either explains the data; the earlier physics is kept)."

@@ -335,6 +335,9 @@ class Trial:
     replaces: list = field(default_factory=list)  # earlier fitted physics this candidate drove to zero (_replaced)
     screened: dict | None = None  # the evidence on the screening window, when the trial was judged again on the whole
     zero_size: bool = False  # every size of the effect indistinguishable from zero (gate (f))
+    # the joint fit (rule (g)): the free position offsets of the variant judged, when the candidate fitted beside
+    # them beat its plain fit by training BIC (the positions read from the car's own equilibrium), with both BICs
+    own_zero: dict | None = None
 
     def as_dict(self):
         return {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in self.__dict__.items()}
@@ -358,6 +361,9 @@ class Diagnosis:
     unexplained: float | None = None  # final held-out error / noise floor when far above it
     proposal: dict | None = None  # a law beyond the library (sparse fit to the residual force)
     sensor_zero: dict | None = None  # the position sensors' zero, when the sensor-zero rule (g) adopted it
+    # the positions read from the car's own equilibrium: a sag-moving parameter named jointly with free position
+    # offsets (rule (g), the joint explanation), with the offsets
+    own_equilibrium: dict | None = None
 
     def sims(self, fitres: FitResult):
         """(train/whole-record simulation, test simulation) of a fit, with its fitted channel offsets."""
@@ -427,6 +433,7 @@ class Selector:
     # stand-in bump stop beside the true pair in both seeds; with the block test alone it names the pair)
     skip_at_floor = True  # a round after the first is not fitted at the floor (module docstring, "Speed")
     sensor_zero_rule = True  # rule (g) of the module docstring (off: the baseline of its test)
+    joint_zero = True  # rule (g)'s joint explanation: a sag-moving candidate also fitted with free position offsets
     def __init__(self, rec: Record, spec: ModelSpec, split: float = 0.7, test_record: Record | None = None,
                  floors: dict | None = None, candidates: list[str] | None = None, max_effects: int = 3,
                  screen_samples: int = 8000, min_excess_drop: float = 0.10, z_min: float = 2.0,
@@ -673,27 +680,58 @@ class Selector:
             if p is not None:
                 p.set_offsets(spec)
 
-    def _sensor_zero(self, kept: list, current_spec: ModelSpec, current: FitResult, cur_screen: FitResult,
-                     a: int, bs: int, b: int):
-        """Rule (g) (module docstring): each kept result that frees a sag-moving parameter is held against the
-        current model with free position offsets (fitted on the same window), by training BIC.  Returns (the
-        kept results it leaves, and (spec, screening fit, fit, finding) of the rival when it has the lowest BIC
-        of all kept results, else None)."""
+    def _position_channels(self) -> list:
+        return [c for c in self.prob.channels if is_position(c)]
+
+    def _moves_sag(self, cands) -> bool:
+        """Whether the candidates free a parameter that moves the static sag (:func:`sag_params`)."""
+        sag = sag_params(self.rec.kind)
+        return any(isinstance(c, ParameterCandidate) and c.pname in sag for c in cands)
+
+    def _joint_applies(self, cands, spec: ModelSpec) -> bool:
+        """Rule (g)'s joint explanation applies: the model's position sensors read zero at the nominal ride
+        height, a position channel is measured, and the candidates move the sag.  Such a candidate is fitted
+        twice: plainly (its sag shows in the positions) and beside a free offset on every position channel
+        (the positions read from the car's own equilibrium: a heavier car re-levelled, or zeroed where it
+        settled); the lower training BIC is judged."""
+        return (self.sensor_zero_rule and self.joint_zero and spec.position_zero == "nominal"
+                and bool(self._position_channels()) and self._moves_sag(cands))
+
+    def _offsets_of(self, fr: FitResult) -> dict:
+        """The fitted offsets of the position channels (SI units: what the sensors read at the model's zero)."""
+        return {c: float(fr.offsets[self.prob.channels.index(c)]) if fr.offsets is not None else 0.0
+                for c in self._position_channels()}
+
+    def _rival(self, spec: ModelSpec, start: FitResult, a: int, bs: int) -> FitResult:
+        """Rule (g)'s rival: ``spec`` (from ``start``'s optimum) with a free offset on every position channel and
+        nothing else freed (a sag-moving parameter at its stated value); the offsets pay log n each in the BIC."""
+        spec_z = _with_fit(spec, start)
+        spec_z.position_zero = "measured"
+        return fit(self.prob, spec_z, a, bs, max_nfev=60)
+
+    def _sensor_zero(self, kept: list, results: list, current_spec: ModelSpec, cur_screen: FitResult, e_cur,
+                     floor_n, a: int, bs: int, b: int):
+        """Rule (g) (module docstring): the rival explanation, the current model with a free offset on every
+        position channel and nothing else freed, is fitted when a candidate that moves the sag was kept, or was
+        fitted better beside free position offsets than without (its joint fit won: the positions are off the
+        nominal zero by BIC, kept or not).  Each kept sag-moving result is held against it by training BIC (the
+        rival pays log n per offset), and the rival is judged by the usual gates.  Returns (the kept results it
+        leaves, and (spec, screening fit, fit, finding) of the rival when the gates keep it and no kept result
+        has a lower BIC, else None)."""
         if current_spec.position_zero != "nominal":
             return kept, None
-        sag = sag_params(self.rec.kind)
-        moving = [r for r in kept if any(isinstance(c, ParameterCandidate) and c.pname in sag for c in r[0])]
-        freed = [c for c in self.prob.channels if is_position(c)]
-        if not moving or not freed:
+        moving = [r for r in kept if self._moves_sag(r[0])]
+        joint = [r for r in results if r[2].own_zero and self._moves_sag(r[0])]
+        freed = self._position_channels()
+        if not (moving or joint) or not freed:
             return kept, None
-        spec_z = _with_fit(current_spec, cur_screen)
-        spec_z.position_zero = "measured"
-        self._set_position_zero(spec_z)
-        try:
-            fs = fit(self.prob, spec_z, a, bs, max_nfev=60)
-        finally:
-            self._set_position_zero(current_spec)
-        bic_z = fs.bic() + len(freed) * np.log(fs.n)
+        fs = self._rival(current_spec, cur_screen, a, bs)
+        bic_z = fs.bic()
+        trz = Trial("position sensors' zero", 0, True)
+        self._judge(trz, fs, cur_screen, e_cur, floor_n, [])
+        self.log(f"  rule (g): the position sensors' zero (a free offset on {', '.join(freed)}) ΔBIC {trz.d_bic:.1f}  "
+                 f"test NRMSE {trz.test_before:.4f} → {trz.test_after:.4f}  z {trz.z:.1f}  "
+                 f"{'passes the gate' if trz.kept else trz.reason or 'fails the gate'}")
         out, beaten = [], []
         for r in kept:
             tr = r[2]
@@ -709,19 +747,20 @@ class Selector:
                     self.log(f"  {tr.name}: beats the position sensors' zero (rule (g): training BIC {tr.bic:.1f} "
                              f"against {bic_z:.1f} with a free offset on {', '.join(freed)})")
                 out.append(r)
-        if not beaten or any(r[2].bic < bic_z for r in out):
+        for r in joint:  # joint fits that won over their plain fit but were not kept: the offsets did the work
+            if not r[2].kept and bic_z <= r[2].bic and not any(bb["candidate"] == r[2].name for bb in beaten):
+                beaten.append({"candidate": r[2].name, "bic": float(r[2].bic)})
+                r[2].reason += (f"; the position sensors' zero explains it better (rule (g): the offsets alone, "
+                                f"training BIC {bic_z:.1f} against {r[2].bic:.1f})")
+        if not trz.kept or not beaten or any(r[2].bic < bic_z for r in out):
             return out, None
         fr = fs
         if bs < b:
-            self._set_position_zero(spec_z)
-            try:
-                fr = fit(self.prob, _with_fit(spec_z, fs), a, b, max_nfev=30)
-            finally:
-                self._set_position_zero(current_spec)
-        idx = [self.prob.channels.index(c) for c in freed]
-        finding = {"offsets": {c: float(fr.offsets[i]) for c, i in zip(freed, idx)}, "bic": float(bic_z),
-                   "bic_before": float(cur_screen.bic()), "beats": beaten}
-        return out, (spec_z, fs, fr, finding)
+            fr = fit(self.prob, _with_fit(fs.spec, fs), a, b, max_nfev=30)
+        finding = {"offsets": self._offsets_of(fr), "bic": float(bic_z),
+                   "bic_before": float(cur_screen.bic()), "beats": beaten,
+                   "test_before": float(trz.test_before), "test_after": float(trz.test_after), "z": float(trz.z)}
+        return out, (fs.spec, fs, fr, finding)
 
     def _polish(self, spec_c: ModelSpec, fr: FitResult, a: int, bs: int, b: int) -> tuple[FitResult, FitResult]:
         """Refit a kept candidate from its own optimum (longer, and on the whole training part when it was
@@ -902,11 +941,29 @@ class Selector:
                     # starts would fit the same nothing again (the full car's single-corner friction record:
                     # the rear axle's and the empty corner's placements, about a quarter of round 1's time)
                     break
+            if self._joint_applies(cands, current_spec):
+                # rule (g), the joint explanation: the same candidates beside a free offset on every position
+                # channel (the positions read from the car's own equilibrium: the sag is not in the record); the
+                # lower training BIC of the two is judged (the offsets pay log n each)
+                spec_j = spec_c.copy()
+                spec_j.position_zero = "measured"
+                try:
+                    fj = fit(self.prob, spec_j, a, bs, starts=[np.array(s0, float) for s0 in starts], max_nfev=25)
+                except RuntimeError:
+                    fj = None
+                if fj is not None and fj.bic() < fr.bic():
+                    tr.own_zero = {"offsets": self._offsets_of(fj), "bic": float(fj.bic()),
+                                   "bic_plain": float(fr.bic())}
+                    spec_c, fr = spec_j, fj
             tr.params = {k: v for k, v in fr.params.items() if k not in current.params}
             self._judge(tr, fr, cur_screen, e_cur, floor_n, sizes, _contained(cands))
             tr.seconds = time.perf_counter() - t1
             msg = (f"  round {rnd} {name:<36} ΔBIC {tr.d_bic:12.1f}  test NRMSE {tr.test_before:.4f} → "
                    f"{tr.test_after:.4f}  z {tr.z:6.1f} / {tr.z_spectral:6.1f}  {tr.seconds:5.1f} s  {'KEPT' if tr.kept else tr.reason}")
+            if tr.own_zero:
+                msg += (f"\n      (fitted with free position offsets, the positions from the car's own equilibrium: "
+                        + ", ".join(f"{c} {1e3 * o:+.2f} mm" for c, o in tr.own_zero["offsets"].items())
+                        + f"; training BIC {tr.own_zero['bic']:.1f} against {tr.own_zero['bic_plain']:.1f} without)")
             return tr, msg, (list(cands), spec_c, tr, fr)
 
         def attempts(jobs, order=None):
@@ -938,9 +995,10 @@ class Selector:
             if not flat or not Ecur > self.near * fl:
                 return None
             pool = self._exchange_pool(trials, lib, {c.name for c in flat})
-            jobs, outs = [], []
+            jobs, outs, bases = [], [], []
             for out_c in flat:
                 spec_r = _with_fit(self.spec, nominal)
+                spec_r.position_zero = current_spec.position_zero
                 for cand in flat:
                     if cand is not out_c:
                         spec_r, _st = cand.augment(spec_r, sc)
@@ -954,6 +1012,7 @@ class Selector:
                     jobs.append((([cand], rnd, spec_r, current, cur_screen, e_screen),
                                  {"label": f"{cand.name} in place of {out_c.name}"}))
                     outs.append(out_c)
+                    bases.append(spec_r)
             if not jobs:
                 return None
             self.log(f"  exchange at {Ecur / max(fl, 1e-12):.1f}× the noise floor: "
@@ -961,7 +1020,24 @@ class Selector:
             n0 = len(trials)
             res = attempts(jobs)
             by_trial = {id(t): outs[k] for k, t in enumerate(trials[n0:])}
+            base_of = {id(t): bases[k] for k, t in enumerate(trials[n0:])}
+            rivals = {}
             for cands, spec_c, tr, fr in sorted([r for r in res if r[2].kept], key=lambda r: r[2].bic):
+                base = base_of[id(tr)]
+                if self.sensor_zero_rule and base.position_zero == "nominal" and self._position_channels() \
+                        and self._moves_sag(cands):
+                    # rule (g) on an exchange: a sag-moving newcomer against the model it joins (the effect
+                    # taken out) with free position offsets instead, by training BIC
+                    key = id(base)
+                    if key not in rivals:
+                        rivals[key] = self._rival(base, cur_screen, a, bs).bic()
+                    if rivals[key] <= tr.bic:
+                        tr.kept = False
+                        tr.reason = (f"rejected: the position sensors' zero explains it better (rule (g): a free "
+                                     f"offset on {', '.join(self._position_channels())} in place of "
+                                     f"{by_trial[id(tr)].name}, training BIC {rivals[key]:.1f} against {tr.bic:.1f})")
+                        self.log(f"  {tr.name}: {tr.reason[len('rejected: '):]}")
+                        continue
                 fs, fr = self._polish(spec_c, fr, a, bs, b)
                 if bs < b and not self._confirm(tr, fr, current, e_cur, floor_n, cands):
                     continue
@@ -973,6 +1049,7 @@ class Selector:
             errors on the whole and screening windows, the per-channel floor re-estimated from its residual)."""
             e_c = self._test_errors(fr)
             e_s = self._test_errors(fs) if bs < b else e_c
+            self._set_position_zero(spec_c)  # the joint explanation of rule (g) frees the position offsets
             self.recolour(floors, fr)
             return (_with_fit(spec_c, fr), fr, fs, e_c, e_s,
                     np.array([floors[c]["nrmse"] for c in self.prob.channels]))
@@ -1055,11 +1132,11 @@ class Selector:
                     kept += [r for r in attempts(jobs) if r[2].kept]
                 zero = None
                 if self.sensor_zero_rule:
-                    kept, zero = self._sensor_zero(kept, current_spec, current, cur_screen, a, bs, b)
+                    kept, zero = self._sensor_zero(kept, results, current_spec, cur_screen, e_screen, floor_n,
+                                                   a, bs, b)
                 if zero is not None:
                     # rule (g): the position sensors' zero is adopted (no effect named), and the search goes on
                     spec_z, fs_z, fr_z, sensor_zero = zero
-                    self._set_position_zero(spec_z)
                     current_spec, current, cur_screen, e_cur, e_screen, floor_n = adopt(spec_z, fr_z, fs_z)
                     self.log("adopted free position-sensor offsets (rule (g)): " + ", ".join(
                         f"{c} {1e3 * o:+.2f} mm" for c, o in sensor_zero["offsets"].items()))
@@ -1108,6 +1185,7 @@ class Selector:
             for drop in range(len(flat)):
                 keep = [c for i, (c, _) in enumerate(flat) if i != drop]
                 spec_r = _with_fit(self.spec, nominal)
+                spec_r.position_zero = current_spec.position_zero
                 for cand in keep:
                     spec_r, _st = cand.augment(spec_r, sc)
                 for f in spec_r.free:
@@ -1133,8 +1211,17 @@ class Selector:
                     break
         T["search"] = time.perf_counter() - t0 - T["calibrate"]
         flat_added = [(c, fr, tr) for cs, fr, tr in added for c in cs]
+        own = None
+        if sensor_zero is None and self.spec.position_zero == "nominal" and current.spec.position_zero == "measured":
+            # the joint explanation of rule (g) was named: a sag-moving parameter with the positions read from
+            # the car's own equilibrium
+            own = {"offsets": self._offsets_of(current),
+                   "with": [t.name for _, _, t in added if t.own_zero],
+                   "trials": {t.name: t.own_zero for t in trials if t.own_zero and t.kept}}
+            self.log("the positions appear measured from the car's own equilibrium (offsets " + ", ".join(
+                f"{c} {1e3 * o:+.2f} mm" for c, o in own["offsets"].items()) + ")")
         D = Diagnosis(self.rec, self.prob, self.test_prob, self.train, self.test, floors, nominal, current,
-                      flat_added, trials, sc, T, sensor_zero=sensor_zero)
+                      flat_added, trials, sc, T, sensor_zero=sensor_zero, own_equilibrium=own)
         for c in self.recolour(floors, current):
             self.log(f"noise floor of {c} raised to {floors[c]['value']:.4g}: the final residual is coloured noise")
         floor_n = np.array([floors[c]["nrmse"] for c in self.prob.channels])
