@@ -166,6 +166,19 @@ RECORDS = {
     "dahl_sedan_iso": dict(veh="sedan", road=("iso", dict(cls="C", speed=18)),
                            hidden={"dahl": dict(rel=(0.2, 0.3), x_y=(0.002, 0.004))}, noise=(0.02, "white"),
                            accept=[{"hysteresis"}, {"coulomb_friction"}]),
+    # --- positions from the car's own equilibrium: the travel sensor zeroed where the (heavier, lighter) car
+    # settled, so its sag is not in the record, while the user's model keeps the default ``position_zero:
+    # nominal`` (the user does not know); the truth is the changed mass (and the effect beside it) ---
+    "heavier_sedan_own": dict(veh="sedan", road=("iso", dict(cls="C", speed=20)), hidden={"mass": dict(f=(1.2, 1.3))},
+                              noise=(0.02, "white"), zero_own=True),
+    "lighter_suv_own": dict(veh="suv", road=("bumps", dict(speed=12, bg="B")), hidden={"mass": dict(f=(0.7, 0.8))},
+                            noise=(0.02, "pink"), bias=(0.3, 0.0), zero_own=True),
+    "two_heavier_cubic_own": dict(veh="city", road=("iso", dict(cls="D", speed=15)),
+                                  hidden={"mass": dict(f=(1.2, 1.3)), "cubic": dict(rel=(0.3, 0.5))},
+                                  noise=(0.02, "white"), zero_own=True),
+    "two_heavier_stops_own": dict(veh="suv", road=("iso", dict(cls="D", speed=18)),
+                                  hidden={"mass": dict(f=(1.2, 1.3)), "stops": dict(q=(0.97, 0.985), sides="comp")},
+                                  noise=(0.02, "pink"), zero_own=True),
     "maxwell_van_iso": dict(veh="van", road=("iso", dict(cls="D", speed=20)),
                             hidden={"maxwell": dict(corner=(6.0, 9.0))}, noise=(0.02, "white")),
 }
@@ -259,6 +272,7 @@ def build(name: str, seed: int = 0, duration: float | None = None, fs: float | N
     d = bt.simulate(veh, hidden, road, force, duration, fs, times=times)
     if times is not None:
         d["time"] = np.arange(len(times)) / fs
+    info = {k: d[k] for k in ("stick_share", "lift_share", "stop_share") if k in d}
     level, colour = spec["noise"]
     n = len(d["time"])
     colours = colour if isinstance(colour, (list, tuple)) else [colour] * 3
@@ -269,6 +283,9 @@ def build(name: str, seed: int = 0, duration: float | None = None, fs: float | N
     meas["body_acc"] += b_body
     meas["wheel_acc"] += b_wheel
     meas["susp_travel"] += spec.get("travel_offset", 0.0)
+    if spec.get("zero_own"):  # the travel sensor zeroed at the car's own static equilibrium (no sag in the record)
+        meas["susp_travel"] -= d["travel_static"]
+        info["travel_static_mm"] = 1e3 * d["travel_static"]
     if spec.get("drift"):  # accelerometer drift: a ramp plus a slow wander, each of that share of the std
         a_ramp, a_wander = spec["drift"]
         tt = d["time"] / d["time"][-1]
@@ -284,7 +301,6 @@ def build(name: str, seed: int = 0, duration: float | None = None, fs: float | N
     params["damping"] = {"value": veh["damping"], "free": True}
     model = {"model": "quarter_car", "params": params, "position_zero": spec.get("zero", "nominal")}
     expect = {NAMES[k] for k in hid_spec if k not in BEYOND}
-    info = {k: d[k] for k in ("stick_share", "lift_share", "stop_share") if k in d}
     data = {"time": d["time"], "road": d["road"], **({"force": d["force"]} if fk else {}), **meas}
     clean = {c: d[c] for c in OUT3}
     if spec.get("drops"):  # rows lost by the logger: the time column shows the gaps
@@ -370,7 +386,11 @@ def score(name, rep, sc) -> dict:
             "before": agg(rep["nrmse"]["before"]["test"]), "after": agg(rep["nrmse"]["after"]["test"]),
             "floor_true": agg(true_floor), "floor_est": agg({c: rep["noise_floor"][c]["nrmse"] for c in chans}),
             "unexplained": rep.get("unexplained_x_floor"), "truth": sc["truth"], "fitted": fitted_values(rep),
-            "info": sc["info"], "verdict": rep.get("verdict", "")}
+            "info": sc["info"], "verdict": rep.get("verdict", ""),
+            # where the search put the position sensors' zero: offsets alone (rule (g)), or beside a changed mass
+            # (the positions from the car's own equilibrium), in mm
+            "zero_mm": {k: {c: 1e3 * o for c, o in rep[k]["offsets"].items()} for k in ("sensor_zero", "own_equilibrium")
+                        if rep.get(k)}}
 
 
 def run_one(name, folder: Path, seed=0, log=None):
@@ -392,6 +412,10 @@ def _fmt_vals(r):
         if k == "road_scale":
             continue
         out.append(f"{k.split('.')[-1]} {tv:.4g}" + (f"→{fv:.4g}" if fv is not None else ""))
+    for k, offs in r.get("zero_mm", {}).items():
+        out.append(f"{k} " + ", ".join(f"{c} {o:+.2f} mm" for c, o in offs.items()))
+    if "travel_static_mm" in r["info"]:
+        out.append(f"(true sag {r['info']['travel_static_mm']:+.2f} mm)")
     return "; ".join(out)
 
 

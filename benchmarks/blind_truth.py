@@ -397,6 +397,9 @@ def simulate(vehicle: dict, hidden: dict, road, force, duration: float, fs: floa
     out = {"time": t_eval, "road": road_src.sample(t_eval), "force": force_src.sample(t_eval),
            "body_acc": acc_s, "wheel_acc": acc_u, "susp_travel": s, "tire_force_total": Ftot,
            "stick_share": float(np.mean(modes == 0)) if stick_slip else 0.0,
+           # the travel at the car's own static equilibrium (a heavier car's sag below the nominal ride height,
+           # negative; 0 for the nominal mass): a sensor zeroed where the car settled reads travel less this
+           "travel_static": float(x0[0] - x0[2]),
            "lift_share": float(np.mean(Ftot <= 0.0)) if lift else 0.0}
     if stops:
         eng = np.zeros(len(s), bool)

@@ -18,8 +18,18 @@ models.
    channel (the parameter at its stated value), by BIC on the training window (the rival pays ``log n`` per
    offset).  A travel sensor zeroed 3 mm off the ride height was read as sag: a mass 19 kg light took the travel
    while making both accelerations worse, each by less than one floor (blind battery null_van_travel_zero).
-   When the rival has the lowest BIC of the round, it is adopted (the position sensors get free offsets, no
-   effect is named, the search goes on) and the report says how far their zero is from the ride height.
+   When the rival has the lowest BIC of the round and passes the gates (a)–(e), it is adopted (the position
+   sensors get free offsets, no effect is named, the search goes on) and the report says how far their zero is
+   from the ride height.  **The joint explanation**: a sag-moving candidate is also fitted beside a free offset
+   on every position channel (the mass changed *and* the positions read from the car's own equilibrium: a
+   heavier car re-levelled, or its sensors zeroed where it settled), and the lower training BIC of its plain
+   and joint fits is the one judged (the offsets pay ``log n`` each: counted in :meth:`.FitResult.bic`).  A
+   car 14 % heavier with no sag in its travel (diagnose_matrix's parameter:sprung_mass) had its plain mass
+   rejected as zero-size, and a stiffness with a tire damping stood in for it; jointly the mass wins by ~10⁴
+   and is named, and the report says the positions appear measured from the car's own equilibrium.  A joint
+   fit that wins its plain fit also calls up the rival (a travel zeroed 3 mm off: the joint mass is
+   zero-size, the offsets alone win).  Pairs and exchanges with a mass go through the same fit (an exchange's
+   rival is the model it joins, the effect taken out, with the offsets).
 4. The kept candidate with the lowest BIC is added, and the search repeats (up to ``max_effects``).
 5. **Beam over pairs**: when no single candidate is kept while the held-out error is still more than
    ``far`` (3) times the noise floor, the ``beam`` (4) candidates with the best training cost are tried
