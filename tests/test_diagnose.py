@@ -597,3 +597,16 @@ def test_a_heavier_car_zeroed_at_its_own_equilibrium_is_named_by_its_mass():
     assert tr.kept and tr.own_zero["bic"] < tr.own_zero["bic_plain"]
     assert "own equilibrium (offsets susp_travel +23" in verdict(D, [{"name": "parameter:sprung_mass"}], *[
         {"test": {"x": v}} for v in (0.2, 0.02)])
+
+
+def test_only_positions_read_zero_at_the_ride_height():
+    """The channels whose zero is the ride height (the joint explanation and rule (g) free their offsets, and
+    only theirs are fixed under ``position_zero: nominal``): travels, positions, pitch and roll angles; a pitch
+    gyro or pitch accelerometer has a bias like the roll gyro (``pitch_rate`` matched the prefix ``pitch``)."""
+    from suspension_sim.diagnose.engine import output_names
+    from suspension_sim.diagnose.model import is_position
+
+    full = output_names("full_car")
+    assert {c for c in full if is_position(c)} == {"pitch", "roll"} | {
+        f"{n}_{c}" for n in ("susp_travel", "body_pos", "wheel_pos") for c in ("fl", "fr", "rl", "rr")}
+    assert is_position("pos") and is_position("susp_travel") and not is_position("acc")

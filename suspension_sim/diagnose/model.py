@@ -39,7 +39,11 @@ POSITION_CHANNELS = ("susp_travel", "body_pos", "wheel_pos", "pos", "pitch", "ro
 
 
 def is_position(channel: str) -> bool:
-    return channel in ("pitch", "roll") or any(channel.startswith(p) for p in POSITION_CHANNELS[:5])
+    """A channel whose zero is the ride height (``position_zero``): travels, body and wheel positions, the
+    SDOF's position, pitch and roll angles; not their rates or accelerations (``pitch_rate`` used to match
+    the prefix ``pitch``: a pitch gyro's bias was not fitted under ``position_zero: nominal``, while the roll
+    gyro's was)."""
+    return channel in ("pitch", "roll") or any(channel.startswith(p) for p in POSITION_CHANNELS[:4])
 
 
 @dataclass
