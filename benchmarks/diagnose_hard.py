@@ -223,11 +223,28 @@ def case_full_heavier(seed):
     return rec, {"model": "full_car", "params": FC_KNOWN, "position_zero": "nominal"}, {"parameter:sprung_mass"}, d
 
 
+def case_heavier_own(seed):
+    """The quarter car of ``heavier`` (sprung mass +30 %) with its positions from its own equilibrium (the truth
+    re-levels: no sag in the travel), while the model keeps the default ``position_zero: nominal`` (the user
+    does not know): the joint explanation of rule (g) names the mass and the travel's zero."""
+    p = {"sprung_mass": 1.3 * 290.0}
+    d = truth.simulate_truth("quarter_car", 10, 1000, {}, params=p, seed=seed, road_rms=0.01, noise=0.02,
+                             outputs=QC_OUT)
+    return _qc(d, QC_OUT), {"model": "quarter_car", "params": QC_KNOWN}, {"parameter:sprung_mass"}, d
+
+
+def case_full_heavier_own(seed):
+    """The full car of ``full_heavier`` (20 % heavier) with its positions from its own equilibrium (re-levelled:
+    no sag in the four travels), the model at the default ``position_zero: nominal``."""
+    rec, d = full_car(seed, {}, params={"sprung_mass": 1.2 * truth.FC_NOMINAL["sprung_mass"]}, sag=False)
+    return rec, {"model": "full_car", "params": FC_KNOWN}, {"parameter:sprung_mass"}, d
+
+
 CASES = {"compound": case_compound, "heavier": case_heavier, "lag": case_lag, "null_coloured": case_null_coloured,
          "vehicle2": case_vehicle2, "half_axle": case_half_axle, "beyond": case_beyond,
          "suv_bumps": case_suv_bumps, "suv_null": case_suv_null, "full_null": case_full_null,
          "full_front_friction": case_full_front_friction, "full_compound": case_full_compound,
-         "full_heavier": case_full_heavier}
+         "full_heavier": case_full_heavier, "heavier_own": case_heavier_own, "full_heavier_own": case_full_heavier_own}
 
 
 def run_case(name, seed=0, out=None, log=None):
