@@ -570,10 +570,11 @@ def test_a_heavier_car_zeroed_at_its_own_equilibrium_is_named_by_its_mass():
     is not in the record: re-levelled, or zeroed where it settled), while the model says ``position_zero:
     nominal`` (the default).  A freed sprung mass fitted plainly must carry a sag the record does not show
     (indistinguishable from its stated value there), so a stiffness stood in for it (diagnose_matrix's
-    parameter:sprung_mass).  Fitted beside a free travel offset (the offset pays log n in the BIC) it wins by
-    training BIC, passes the gate and beats the offsets alone: the mass is named, and the report says the
-    positions appear measured from the car's own equilibrium (the offset is the nominal-zero sag,
-    40 kg · g / k = 23.3 mm).  Baseline (the joint fit off): the mass is not named."""
+    parameter:sprung_mass).  Fitted with the positions from its own equilibrium (each parameter set's rest
+    positions subtracted: the same parameters, no free offset) it wins by training BIC, passes the gate and
+    beats the offsets alone: the mass is named, and the report says the positions appear measured from the
+    car's own equilibrium (the offset is the nominal-zero sag, 40 kg · g / k = 23.3 mm).  Baseline (the joint
+    fit off): the mass is not named."""
     from suspension_sim.diagnose.model import load_model
     from suspension_sim.diagnose.report import verdict
     from suspension_sim.diagnose.select import Selector
@@ -592,7 +593,7 @@ def test_a_heavier_car_zeroed_at_its_own_equilibrium_is_named_by_its_mass():
     assert [c.name for c, _, _ in D.added] == ["parameter:sprung_mass"] and D.sensor_zero is None
     assert abs(D.final.params["sprung_mass"] - 330.0) < 0.01 * 330.0
     assert abs(D.own_equilibrium["offsets"]["susp_travel"] - 40.0 * 9.81 / 16812.0) < 1e-3
-    assert D.final.spec.position_zero == "measured"
+    assert D.final.spec.position_zero == "own"  # the zero moves with the model's mass: no free offset
     tr = next(t for t in D.trials if t.name == "parameter:sprung_mass" and t.round == 1)
     assert tr.kept and tr.own_zero["bic"] < tr.own_zero["bic_plain"]
     assert "own equilibrium (offsets susp_travel +23" in verdict(D, [{"name": "parameter:sprung_mass"}], *[

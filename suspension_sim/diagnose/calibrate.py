@@ -164,7 +164,33 @@ class Problem:
         b = len(self.rec) if b is None else b
         out = self.engine(spec).run(list(Ps), b, [(e.label, e.type, e.corners, e.fixed) for e in spec.effects],
                                     outputs=self.channels)
-        return out[:, :, self.col]
+        out = out[:, :, self.col]
+        if spec.position_zero == "own":
+            out = out - self.rest(spec, Ps)[:, None, :]
+        return out
+
+    def rest(self, spec: ModelSpec, Ps: list) -> np.ndarray:
+        """(n_sets, n_channels): each set's position channels at rest with zero inputs (where its springs and
+        effects carry its weight, from the nominal ride height: a heavier car's sag), 0 on the other channels.
+        ``position_zero: own`` (the joint explanation of select.py rule (g): the positions read from the car's
+        own equilibrium) subtracts it from the simulation, so the position sensors' zero moves with the
+        model's mass instead of being a free offset."""
+        rp = self.__dict__.get("_rest")
+        if rp is None:
+            with _ENGINE_LOCK:
+                rp = self.__dict__.get("_rest")
+                if rp is None:
+                    n = 4
+                    rec = Record(self.kind, self.rec.t[:n] - self.rec.t[0], {k: np.zeros(n) for k in self.rec.inputs},
+                                 {c: np.zeros(n) for c in self.channels}, self.rec.source, [], self.rec.hold)
+                    rp = Problem(rec, None, max_dt=self.max_dt)
+                    rp.level = self.level
+                    self._rest = rp
+        plain = spec.copy()
+        plain.position_zero = "nominal"
+        r = rp.simulate_batch(plain, Ps, 2)[:, 0, :]
+        pos = np.array([is_position(c) for c in self.channels])
+        return np.where(pos[None, :], r, 0.0)
 
     def fit_offsets(self, sim, a: int, b: int, mask=None) -> np.ndarray:
         """The free offsets (added to the simulation) that match the data on [a, b) in the mean (``mask``: the

@@ -72,6 +72,9 @@ def vehicle_block(D: Diagnosis) -> dict:
         out["inputs"] = {"force_gain": float(P.get("input.gain", 1.0)), "force_offset": float(P.get("input.offset", 0.0))}
     if D.final.offsets is not None and np.any(D.final.offsets):
         out["channel_offsets"] = {c: float(o) for c, o, m in zip(D.prob.channels, D.final.offsets, D.prob.offset_mask) if m}
+    if spec.position_zero == "own":  # the positions from the car's own equilibrium: a replay states their offsets
+        out["position_zero"] = "measured"
+        out.setdefault("channel_offsets", {}).update((D.own_equilibrium or {}).get("offsets", {}))
     out["ci95"] = {k: [float(a), float(b)] for k, (a, b) in D.final.ci95.items()}
     return out
 

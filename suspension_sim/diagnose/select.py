@@ -708,7 +708,11 @@ class Selector:
                 and bool(self._position_channels()) and self._moves_sag(cands))
 
     def _offsets_of(self, fr: FitResult) -> dict:
-        """The fitted offsets of the position channels (SI units: what the sensors read at the model's zero)."""
+        """The offsets of the position channels (SI units: what the sensors read at the nominal ride height):
+        the fitted ones, or under ``position_zero: own`` minus the model's rest positions (its sag)."""
+        if fr.spec.position_zero == "own":
+            r = self.prob.rest(fr.spec, [fr.P])[0]
+            return {c: -float(r[self.prob.channels.index(c)]) for c in self._position_channels()}
         return {c: float(fr.offsets[self.prob.channels.index(c)]) if fr.offsets is not None else 0.0
                 for c in self._position_channels()}
 
@@ -724,19 +728,19 @@ class Selector:
 
         from .calibrate import effective_n
 
-        if fr.offsets is None:
-            return True
+        offs = self._offsets_of(fr)
         a = max(a, self.prob.skip)
         sim = fr.simulated(self.prob)
+        o_fit = fr.offsets if fr.offsets is not None else np.zeros(len(self.prob.channels))
         w = 0.0
         chans = self._position_channels()
         for c in chans:
             i = self.prob.channels.index(c)
-            r = sim[a:b, i] + fr.offsets[i] - self.prob.Y[a:b, i]
+            r = sim[a:b, i] + o_fit[i] - self.prob.Y[a:b, i]
             se = float(np.std(r)) / np.sqrt(max(effective_n(r[:, None]), 1.0))
             if not se > 0:
                 return False
-            w += (float(fr.offsets[i]) / se) ** 2
+            w += (offs[c] / se) ** 2
         return not w > chi2.ppf(chi2.cdf(ZERO_Z ** 2, 1), len(chans))
 
     def _rival(self, spec: ModelSpec, start: FitResult, a: int, bs: int) -> FitResult:
@@ -979,11 +983,12 @@ class Selector:
                     # the rear axle's and the empty corner's placements, about a quarter of round 1's time)
                     break
             if self._joint_applies(cands, current_spec):
-                # rule (g), the joint explanation: the same candidates beside a free offset on every position
-                # channel (the positions read from the car's own equilibrium: the sag is not in the record); the
-                # lower training BIC of the two is judged (the offsets pay log n each)
+                # rule (g), the joint explanation: the same candidates with the positions read from the model's
+                # own equilibrium (the sag is not in the record: each set's rest positions are subtracted,
+                # Problem.rest); the lower training BIC of the two is judged (the same parameters: a choice of
+                # convention, not free offsets)
                 spec_j = spec_c.copy()
-                spec_j.position_zero = "measured"
+                spec_j.position_zero = "own"
                 try:
                     fj = fit(self.prob, spec_j, a, bs, starts=[np.array(s0, float) for s0 in starts], max_nfev=25)
                 except RuntimeError:
@@ -998,7 +1003,7 @@ class Selector:
             msg = (f"  round {rnd} {name:<36} ΔBIC {tr.d_bic:12.1f}  test NRMSE {tr.test_before:.4f} → "
                    f"{tr.test_after:.4f}  z {tr.z:6.1f} / {tr.z_spectral:6.1f}  {tr.seconds:5.1f} s  {'KEPT' if tr.kept else tr.reason}")
             if tr.own_zero:
-                msg += (f"\n      (fitted with free position offsets, the positions from the car's own equilibrium: "
+                msg += (f"\n      (fitted with the positions from the car's own equilibrium, offsets "
                         + ", ".join(f"{c} {1e3 * o:+.2f} mm" for c, o in tr.own_zero["offsets"].items())
                         + f"; training BIC {tr.own_zero['bic']:.1f} against {tr.own_zero['bic_plain']:.1f} without)")
             return tr, msg, (list(cands), spec_c, tr, fr)
@@ -1249,7 +1254,7 @@ class Selector:
         T["search"] = time.perf_counter() - t0 - T["calibrate"]
         flat_added = [(c, fr, tr) for cs, fr, tr in added for c in cs]
         own = None
-        if sensor_zero is None and self.spec.position_zero == "nominal" and current.spec.position_zero == "measured":
+        if sensor_zero is None and self.spec.position_zero == "nominal" and current.spec.position_zero == "own":
             # the joint explanation of rule (g) was named: a sag-moving parameter with the positions read from
             # the car's own equilibrium
             own = {"offsets": self._offsets_of(current),
