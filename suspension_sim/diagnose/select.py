@@ -20,16 +20,18 @@ models.
    while making both accelerations worse, each by less than one floor (blind battery null_van_travel_zero).
    When the rival has the lowest BIC of the round and passes the gates (a)–(e), it is adopted (the position
    sensors get free offsets, no effect is named, the search goes on) and the report says how far their zero is
-   from the ride height.  **The joint explanation**: a sag-moving candidate is also fitted beside a free offset
-   on every position channel (the mass changed *and* the positions read from the car's own equilibrium: a
-   heavier car re-levelled, or its sensors zeroed where it settled), and the lower training BIC of its plain
-   and joint fits is the one judged (the offsets pay ``log n`` each: counted in :meth:`.FitResult.bic`).  A
-   car 14 % heavier with no sag in its travel (diagnose_matrix's parameter:sprung_mass) had its plain mass
-   rejected as zero-size, and a stiffness with a tire damping stood in for it; jointly the mass wins by ~10⁴
-   and is named, and the report says the positions appear measured from the car's own equilibrium.  A joint
-   fit that wins its plain fit also calls up the rival (a travel zeroed 3 mm off: the joint mass is
-   zero-size, the offsets alone win).  Pairs and exchanges with a mass go through the same fit (an exchange's
-   rival is the model it joins, the effect taken out, with the offsets).
+   from the ride height.  **The joint explanation**: a sag-moving candidate is also fitted with the
+   positions read from the model's own equilibrium (``position_zero: own``: each parameter set's rest positions
+   subtracted, :meth:`.Problem.rest`; the mass changed *and* the sensors zeroed where the car settled, or the
+   car re-levelled), and the lower training BIC of its plain and own-zero fits is the one judged (the same
+   parameters; the own zero only when its implied offsets are distinguishable from zero, :meth:`_offsets_zero`).
+   A car 14 % heavier with no sag in its travel (diagnose_matrix's parameter:sprung_mass) had its plain mass
+   rejected as zero-size, and a stiffness with a tire damping stood in for it; with its own zero the mass
+   wins by ~10⁴ and is named, and the report says the positions appear measured from the car's own
+   equilibrium.  (Free offsets instead of the own zero let an unsprung mass take a missing cubic spring's
+   static signature: blind battery two_heavier_cubic.)  Pairs and exchanges with a mass go through the same
+   fit (an exchange's sag-moving newcomer also meets the rival: the model it joins, the effect taken out,
+   with free position offsets).
 4. The kept candidate with the lowest BIC is added, and the search repeats (up to ``max_effects``).
 5. **Beam over pairs**: when no single candidate is kept while the held-out error is still more than
    ``far`` (3) times the noise floor, the ``beam`` (4) candidates with the best training cost are tried
@@ -443,7 +445,7 @@ class Selector:
     # stand-in bump stop beside the true pair in both seeds; with the block test alone it names the pair)
     skip_at_floor = True  # a round after the first is not fitted at the floor (module docstring, "Speed")
     sensor_zero_rule = True  # rule (g) of the module docstring (off: the baseline of its test)
-    joint_zero = True  # rule (g)'s joint explanation: a sag-moving candidate also fitted with free position offsets
+    joint_zero = True  # rule (g)'s joint explanation: a sag-moving candidate also fitted with its own zero
     def __init__(self, rec: Record, spec: ModelSpec, split: float = 0.7, test_record: Record | None = None,
                  floors: dict | None = None, candidates: list[str] | None = None, max_effects: int = 3,
                  screen_samples: int = 8000, min_excess_drop: float = 0.10, z_min: float = 2.0,
