@@ -51,6 +51,30 @@ def _dir_lock(folder: str):
         os.close(fd)  # releases the lock
 
 
+@contextlib.contextmanager
+def compile_lock(folder, name: str):
+    """An exclusive ``flock`` on ``NAME.lock`` in ``folder``, held while one process compiles the function whose
+    cache file that is: another process that needs the same function at the same time waits, then loads it from
+    the cache (~0.25 s) instead of compiling it a second time (3-15 s of CPU; pytest -n 2 and batch workers start
+    the same loop at once).  Processes compiling different functions do not wait for each other.  A no-op
+    where the folder is not writable or ``fcntl`` is missing."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - Windows
+        yield
+        return
+    try:
+        fd = os.open(os.path.join(str(folder), f"{name}.lock"), os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError:
+        yield
+        return
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)
+
+
 def locked_save(self, key, data):
     """``IndexDataCacheFile.save`` under the cache folder's lock, the data file written before the index."""
     with _dir_lock(self._cache_path):

@@ -76,3 +76,33 @@ def test_installed_when_numba_was_imported_first():
     code = ("import numba.core.caching, suspension_sim, sys; from suspension_sim import numba_cache; "
             "sys.exit(0 if sys.modules['numba.core.caching'].IndexDataCacheFile.save is numba_cache.locked_save else 1)")
     assert subprocess.run([sys.executable, "-c", code], timeout=120).returncode == 0
+
+
+def test_compile_lock_makes_the_second_process_wait(tmp_path):
+    """The generated loop's first call (compile or cache load) holds NAME.lock: a second holder of the same name
+    (another process, or a thread: flock locks are per open file) waits until the first is done; another name
+    does not wait."""
+    import time
+
+    order = []
+    held = threading.Event()
+
+    def first():
+        with numba_cache.compile_lock(tmp_path, "loop_a"):
+            held.set()
+            time.sleep(0.3)
+            order.append("first done")
+
+    def second(name):
+        held.wait(5)
+        with numba_cache.compile_lock(tmp_path, name):
+            order.append(f"{name} in")
+
+    a = threading.Thread(target=first)
+    b = threading.Thread(target=second, args=("loop_b",))
+    c = threading.Thread(target=second, args=("loop_a",))
+    for t in (a, b, c):
+        t.start()
+    for t in (a, b, c):
+        t.join(10)
+    assert order == ["loop_b in", "first done", "loop_a in"]

@@ -36,6 +36,7 @@ import mujoco
 import numpy as np
 
 from .. import buffers
+from ..numba_cache import compile_lock
 
 TEMPLATE_VERSION = 21
 
@@ -915,6 +916,12 @@ def run_steps(sim, mode: str, progress=None, logger=None):
              *_maneuver_joints(sim), sim.acc_dofs, sim.v_ctrl, sim.acc_mean, float(sim.acc_period))
 
     def call(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume):
+        if not mod.loop.overloads:  # the first call in this process compiles the loop or loads it from the cache
+            with compile_lock(Path(mod.__file__).parent, mod.__name__):  # one process compiles, the others load
+                return run_chunk(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume)
+        return run_chunk(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume)
+
+    def run_chunk(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume):
         return mod.loop(*fixed, road_z, road_zd, road_zdd, man_p, man_r, k_chunk0, k, k1, resume, bool(sim.variations), full, sim.n_steps, sim.sub,
                         sim.log_every, sim.dt, float(sc0.max_displacement), float(sc0.max_velocity),
                         cmd, F_act, F_eff, F_teff, acc, v_before, sv, a_p, a_pi, a_st,
