@@ -136,6 +136,32 @@ def test_ensemble_with_sensor_pipeline_is_bit_identical(monkeypatch):
     assert alone[0].ts.equals(rc[1].ts)
 
 
+def test_every_compiled_sensor_field_reads_what_the_python_pipeline_reads(monkeypatch):
+    """Each PlantState field a sensor reads has its own code in the generated loop (compiled.loop._FIELD_CODE):
+    every one of them, on a half car (pitch, two corners, tires), equals the Python loop bit for bit."""
+    from suspension_sim.compiled.loop import FIELDS
+
+    plain = ["actuator_force", "body_acc", "body_pos", "body_vel", "corner_body_acc", "corner_body_pos",
+             "corner_body_vel", "road", "road_vel", "tire_force", "travel", "travel_rate", "wheel_acc", "wheel_pos",
+             "wheel_vel"]
+    sensors = [{"name": n, "type": n} for n in plain]
+    sensors += [{"name": f"{n}_mean", "type": n, "params": {"sampling": "period_mean"}}
+                for n in ("body_acc", "corner_body_acc", "wheel_acc")]
+    sensors += [{"name": "pressure", "type": "actuator_state", "params": {"state": "load_pressure"}},
+                {"name": "noisy", "type": "tire_force", "noise_std": 1.0, "delay": 0.002}]  # the ring buffer's path
+    sc = parse_scenario({"name": "fields", "vehicle": {"model": "half_car"},
+                         "road": {"type": "sine", "params": {"frequency": 2.0, "amplitude": 0.02}, "speed": 10.0},
+                         "sensors": sensors, "actuator": {"type": "hydraulic"}, "controller": {"type": "passive"},
+                         "sim": {"duration": 0.3, "control_dt": 0.002}, "outputs": {"plots": False}})
+    sim_c, rc = _run([sc], True, monkeypatch)
+    _, rp = _run([sc], False, monkeypatch)
+    assert sim_c.loop == "full", sim_c.loop_reason
+    assert len(set(FIELDS) - {"corner_body_acc_mean", "body_acc_mean", "wheel_acc_mean"} - set(plain)) == 1  # actuator_state
+    cols = [c for c in rp[0].ts.columns if c.startswith("sensor.")]
+    assert len(cols) == 40 and sum(float(np.abs(rp[0].ts[c]).max()) > 0 for c in cols) >= 38
+    assert rp[0].ts.equals(rc[0].ts)
+
+
 def test_hybrid_loop_with_full_state_access(monkeypatch):
     scs = _bench_like(2, controller={"type": "skyhook", "params": {"c_sky": 2000.0}, "full_state": True})
     sim_c, rc = _run(scs, True, monkeypatch)

@@ -38,7 +38,7 @@ import numpy as np
 from .. import buffers
 from ..numba_cache import compile_lock
 
-TEMPLATE_VERSION = 21
+TEMPLATE_VERSION = 22
 
 # PlantState fields a compiled sensor may read (Sensor.kernel_field), by code
 FIELDS = ("body_pos", "body_vel", "body_acc", "corner_body_pos", "corner_body_vel", "corner_body_acc",
@@ -135,11 +135,48 @@ _FIELD_ARGS = ("i, jr, qpos, qvel, ten_len, ten_vel, acc, accm, body_q, body_v, 
                "road_z, road_zd, kt, ct, Jb, F_act, F_teff, a_st, road_dof")
 
 
+# the value of PlantState field code f for car i and column col (the sensor's Python pipeline reads the same
+# numbers): one function per field that a sensor of the loop reads, so that a call site carries only its own
+# field's code (one function of all fields, inlined at every sensor, made numba type and lower every field's
+# branch per sensor: ~1 s of compiling per sensor)
+_FIELD_CODE = {
+    0: "return qpos[body_q[i, col]]",
+    1: "return qvel[body_v[i, col]]",
+    2: "return acc[body_v[i, col]]",  # the last step's acceleration
+    16: "return accm[body_v[i, col]]",  # its period mean (sampling: period_mean)
+    3: "return ten_len[susp_t[i, col]] + qpos[wheel_q[i, col]]",
+    4: "return ten_vel[susp_t[i, col]] + qvel[wheel_v[i, col]]",
+    5: "s = 0.0\nfor b in range(body_v.shape[1]):\n    s += Jb[i, col, b] * acc[body_v[i, b]]\nreturn s",
+    17: "s = 0.0\nfor b in range(body_v.shape[1]):\n    s += Jb[i, col, b] * accm[body_v[i, b]]\nreturn s",
+    6: "return qpos[wheel_q[i, col]]",
+    7: "return qvel[wheel_v[i, col]]",
+    8: "return acc[wheel_v[i, col]] if has_tire else 0.0",
+    18: "return accm[wheel_v[i, col]] if has_tire else 0.0",
+    9: "return ten_len[susp_t[i, col]]",
+    10: "return ten_vel[susp_t[i, col]]",
+    11: "return road_z[jr, i, col]",
+    12: "return road_zd[jr, i, col]",
+    13: ("if has_tire:\n    tl = ten_len[tire_t[i, col]]\n    tv = ten_vel[tire_t[i, col]]\n    if not road_dof:\n"
+         "        tl = tl - road_z[jr, i, col]\n        tv = tv - road_zd[jr, i, col]\n"
+         "    return -kt[i, col] * tl - ct[i, col] * tv + F_teff[i, col]\nreturn 0.0"),
+    14: "return F_act[i, col]",
+    15: "return a_st[i, col, aux]",
+}
+
+
+def _field_defs(fields) -> str:
+    out = []
+    for f in sorted(set(fields)):
+        body = "".join(f"    {line}\n" for line in _FIELD_CODE[f].split("\n"))
+        out.append(f'@njit(cache=True, inline="always")\ndef field_{f}(col, aux, {_FIELD_ARGS}):  # {FIELDS[f]}\n{body}\n\n')
+    return "".join(out)
+
+
 def _sensor_code(sc: int, field: int, simple: bool) -> str:
     """The compiled loop's lines for sensor ``sc`` (reading PlantState field code ``field``), for car i: a
     sensor without delay, hold, noise or quantisation is read straight into y (its value + bias, as the
     Python pipeline computes it); else through the ring buffer of the pipeline."""
-    val = f"field_value({field}, sens_cols[{sc}, q], sens_aux[{sc}], {_FIELD_ARGS})"
+    val = f"field_{field}(sens_cols[{sc}, q], sens_aux[{sc}], {_FIELD_ARGS})"
     ind = " " * 16
     if simple:
         return (f"{ind}for q in range(sens_k[{sc}]):\n"
@@ -206,60 +243,14 @@ def generate_source(effects, actuator, controller, sensors=(), shape=None) -> st
     acc_read = any(f in (FIELDS.index("body_acc"), FIELDS.index("corner_body_acc"), FIELDS.index("wheel_acc"))
                    for f, _ in sensors)
     mean_read = any(FIELDS[f].endswith("_acc_mean") for f, _ in sensors)
+    field_defs = _field_defs(f for f, _ in sensors)
     body = f'''
 PRE = {PRE}
 ACC_READ = {acc_read}  # a sensor reads an acceleration
 MEAN_READ = {mean_read}  # a sensor reads a period-mean acceleration
 
 
-@njit(cache=True, inline="always")
-def field_value(f, col, aux, i, jr, qpos, qvel, ten_len, ten_vel, acc, accm, body_q, body_v, wheel_q, wheel_v, susp_t,
-                tire_t, has_tire, road_z, road_zd, kt, ct, Jb, F_act, F_teff, a_st, road_dof):
-    if f == 0:
-        return qpos[body_q[i, col]]
-    if f == 1:
-        return qvel[body_v[i, col]]
-    if f == 2 or f == 16:  # the last step's acceleration, or its period mean (sampling: period_mean)
-        return (accm if f == 16 else acc)[body_v[i, col]]
-    if f == 3:
-        return ten_len[susp_t[i, col]] + qpos[wheel_q[i, col]]
-    if f == 4:
-        return ten_vel[susp_t[i, col]] + qvel[wheel_v[i, col]]
-    if f == 5 or f == 17:
-        a = accm if f == 17 else acc
-        s = 0.0
-        for b in range(body_v.shape[1]):
-            s += Jb[i, col, b] * a[body_v[i, b]]
-        return s
-    if f == 6:
-        return qpos[wheel_q[i, col]]
-    if f == 7:
-        return qvel[wheel_v[i, col]]
-    if f == 8 or f == 18:
-        return (accm if f == 18 else acc)[wheel_v[i, col]] if has_tire else 0.0
-    if f == 9:
-        return ten_len[susp_t[i, col]]
-    if f == 10:
-        return ten_vel[susp_t[i, col]]
-    if f == 11:
-        return road_z[jr, i, col]
-    if f == 12:
-        return road_zd[jr, i, col]
-    if f == 13:
-        if has_tire:
-            tl = ten_len[tire_t[i, col]]
-            tv = ten_vel[tire_t[i, col]]
-            if not road_dof:
-                tl = tl - road_z[jr, i, col]
-                tv = tv - road_zd[jr, i, col]
-            return -kt[i, col] * tl - ct[i, col] * tv + F_teff[i, col]
-        return 0.0
-    if f == 14:
-        return F_act[i, col]
-    return a_st[i, col, aux]
-
-
-@njit(cache=True, nogil=True)
+{field_defs}@njit(cache=True, nogil=True)
 def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
          road_q, road_v, road_servo, susp_t, tire_t, eff_s, eff_t, act, wheel_q, wheel_v, body_q, body_v,
          free_q, free_v, has_tire, has_effects, has_tire_effects, kt, ct, Jb, road_dof, lsp, rest0, tire_ct,
@@ -917,7 +908,7 @@ def run_steps(sim, mode: str, progress=None, logger=None):
 
     def call(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume):
         if not mod.loop.overloads:  # the first call in this process compiles the loop or loads it from the cache
-            with compile_lock(Path(mod.__file__).parent, mod.__name__):  # one process compiles, the others load
+            with compile_lock(Path(mod.__file__).parent, mod.__name__):  # one process compiles it, the others wait and load it
                 return run_chunk(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume)
         return run_chunk(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume)
 
