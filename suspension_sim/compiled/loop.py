@@ -203,8 +203,9 @@ def generate_source(effects, actuator, controller, sensors=(), shape=None) -> st
            "from suspension_sim.compiled.mj import mj_step1, mj_step2, mj_step, mj_forwardSkip",
            "from suspension_sim.compiled.loop import inlined",
            "from suspension_sim.sensors.base import measure, period_mean_acc", "from suspension_sim.compiled.views import row"]
-    for k, (mod, name, _, _) in enumerate(effects):
-        imp.append(f"from {mod} import {name} as eff{k}")
+    for k, (mod, name, _, _) in enumerate(effects):  # inlined at numba's level, as the actuator's kernels
+        imp.append(f"from {mod} import {name} as _eff{k}")
+        imp.append(f"eff{k} = inlined(_eff{k})")
     (am, af), (am2, aa) = actuator
     imp.append(f"from {am} import {af} as _act_force")
     imp.append(f"from {am2} import {aa} as _act_advance")
