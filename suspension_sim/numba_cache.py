@@ -33,15 +33,17 @@ _PATCHED = "_suspension_sim_locked_save"
 
 
 @contextlib.contextmanager
-def _dir_lock(folder: str):
+def _flock(path: str):
+    """An exclusive ``flock`` on the file ``path`` (created when missing), released on exit; a no-op where the
+    folder is not writable (numba does not save there either) or ``fcntl`` is missing (Windows)."""
     try:
         import fcntl
     except ImportError:  # pragma: no cover - Windows
         yield
         return
     try:
-        fd = os.open(os.path.join(folder, LOCK_NAME), os.O_RDWR | os.O_CREAT, 0o644)
-    except OSError:  # read-only cache folder: numba does not save there either
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError:
         yield
         return
     try:
@@ -51,28 +53,18 @@ def _dir_lock(folder: str):
         os.close(fd)  # releases the lock
 
 
-@contextlib.contextmanager
+def _dir_lock(folder: str):
+    """The cache folder's lock (one per folder: index writes)."""
+    return _flock(os.path.join(folder, LOCK_NAME))
+
+
 def compile_lock(folder, name: str):
     """An exclusive ``flock`` on ``NAME.lock`` in ``folder``, held while one process compiles the function whose
     cache file that is: another process that needs the same function at the same time waits, then loads it from
     the cache (~0.25 s) instead of compiling it a second time (3-15 s of CPU; pytest -n 2 and batch workers start
     the same loop at once).  Processes compiling different functions do not wait for each other.  A no-op
     where the folder is not writable or ``fcntl`` is missing."""
-    try:
-        import fcntl
-    except ImportError:  # pragma: no cover - Windows
-        yield
-        return
-    try:
-        fd = os.open(os.path.join(str(folder), f"{name}.lock"), os.O_RDWR | os.O_CREAT, 0o644)
-    except OSError:
-        yield
-        return
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
-        yield
-    finally:
-        os.close(fd)
+    return _flock(os.path.join(str(folder), f"{name}.lock"))
 
 
 def locked_save(self, key, data):
