@@ -548,7 +548,7 @@ def ensemble(repo, name, duration, param, values, edit=None):
 @pytest.mark.parametrize("name, edit, param, values", [
     ("thesis_ch3_dirt", None, "sprung_mass", [250, 350, 450]),  # the printed law (the default)
     ("thesis_ch3_dirt", _thetad, "sprung_mass", [250, 350]),  # the variant with our θ_d and P1
-    ("thesis_ch4_dirt", _no_effects, "sprung_mass", [250, 350, 450]),
+    ("thesis_ch4_dirt", _no_effects, "sprung_mass", [250, 350, 450]),  # the printed law (the default: no bias)
     ("thesis_ch5_varying", _ch5_schedule, "sprung_mass", [250, 320]),
     # the printed laws (the default) run away at the first bump edge (0.103 s): compared up to that stop
     ("thesis_ch6_bump", lambda raw: (_ch6_bump(raw), _no_effects(raw)), "sprung_mass", [70]),
