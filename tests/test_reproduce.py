@@ -193,13 +193,15 @@ def test_reproduce_thesis(tmp_path):
     assert s["ch3_dirt"]["key"]["passive_level"] < -0.2 and abs(s["ch3_dirt"]["key"]["mrac_level"]) < 0.01
     # Ch. 5: no pair of SOC weights gives all of the thesis's nominal sub-claims
     assert s["ch5"]["key"]["sweep_all_hits"] == 0
-    # Ch. 4 dirt road: every key number converged with RK4 and the friction's mean over each step, the printed law
-    # without the delay's bias estimate included (with implicitfast it drifted with the step, the page), and that
-    # law's verdict is not (it attenuates far below the reference at 0.25–1 Hz)
+    # Ch. 4 dirt road: every key number converged with RK4 and the friction's mean over each step, the bias estimate
+    # of the law with our bias without the delay included (with implicitfast it drifted with the step, the page);
+    # without the delay the printed law (no bias) is closer to the reference than passive at 0.5–4 Hz (partly), the
+    # law with our bias is not (it attenuates far below the reference at 0.25–1 Hz)
     cd = s["ch4_dirt"]["convergence"]
     assert all(c["converged"] for c in cd.values()), cd
     vd = _verdicts(d, "ch4_dirt")
-    assert vd[next(k for k in vd if "without the loop delay" in k)] == "not"
+    assert vd[next(k for k in vd if k.startswith("without the loop delay"))] == "partly"
+    assert vd[next(k for k in vd if "mrac_bias_no_delay" in k)] == "not"
     k7 = s["ch7_braking"]["key"]
     assert k7["asym_mrac_bounce"] < 0.1 * k7["asym_passive_bounce"]
     assert k7["mrac_pitch_deg"] < 0.2 * k7["passive_dive_deg"]

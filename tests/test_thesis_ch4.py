@@ -189,16 +189,19 @@ def test_estimates_from_a_wrong_design_merge_with_the_right_start(load_step):
 def test_dirt_road_without_loop_delay_ours_follows_reference_printed_law_overattenuates(request):
     """The Ch. 4 laws on the dirt road (exact stick-slip friction) without the 0.05 s loop delay.  Body-acceleration
     PSDs of the acceleration averaged over each 1 ms log step (from the logged velocity): ours (κ = 0.1, Q = 1e-4)
-    is closer to the reference than passive from 0.5 to 4 Hz; the printed law (κ = 1) is closer at 2–4 Hz but
-    attenuates far below the reference at 0.5–1 Hz (the page's verdict: not).  The logged instantaneous body_acc
-    (the last physics step's) reads that band ≥ 10× higher: the friction's ±1000 N switching, sampled at 1 kHz,
-    aliases into it (that sample made the printed law look closer than passive)."""
+    is closer to the reference than passive from 0.5 to 4 Hz; the printed law (κ = 1, no bias: the default) is
+    closer at 1–4 Hz but attenuates far below the reference at 0.5–1 Hz (measured 0.0053 over 8–24 s: still farther
+    from it than passive here; over the item's 12–60 s 0.035, marginally closer than passive's 50, the page's
+    partly); the same law with our bias (`mrac_bias_no_delay`) is closer at 2–4 Hz but attenuates far below the
+    reference at 0.5–1 Hz, farther from it than passive (verdict: not).  The logged instantaneous body_acc (the
+    last physics step's) reads that band ≥ 10× higher: the friction's ±1000 N switching, sampled at 1 kHz,
+    aliases into it (that sample made the law with the bias look closer than passive)."""
 
     def edit(raw):
         raw["sim"]["duration"] = 24.0
 
     out = run_variants(request.config.rootpath, "thesis_ch4_dirt", edit,
-                       variants=("passive", "mrac_no_delay", "mrac_kappa_q_no_delay"))
+                       variants=("passive", "mrac_no_delay", "mrac_bias_no_delay", "mrac_kappa_q_no_delay"))
     fs = 1.0 / (out["passive"].t[1] - out["passive"].t[0])
 
     def psd(ts, col=None):
@@ -216,11 +219,15 @@ def test_dirt_road_without_loop_delay_ours_follows_reference_printed_law_overatt
     _, Pk = psd(out["mrac_kappa_q_no_delay"])
     for lo, hi in ((0.5, 1.0), (1.0, 2.0), (2.0, 4.0)):  # ours: closer than passive in every band
         assert abs(np.log10(band(Pk, lo, hi))) < abs(np.log10(band(Pp, lo, hi))), (lo, hi)
-    _, Pm = psd(out["mrac_no_delay"])
-    assert abs(np.log10(band(Pm, 2.0, 4.0))) < abs(np.log10(band(Pp, 2.0, 4.0)))
-    assert band(Pm, 0.5, 1.0) < 0.1 and abs(np.log10(band(Pm, 0.5, 1.0))) > abs(np.log10(band(Pp, 0.5, 1.0)))
-    _, Pi = psd(out["mrac_no_delay"], "body_acc")
-    assert band(Pi, 0.5, 1.0) > 10 * band(Pm, 0.5, 1.0)
+    _, Pm = psd(out["mrac_no_delay"])  # the printed law: closer at 1–4 Hz, far below the reference at 0.5–1 Hz
+    for lo, hi in ((1.0, 2.0), (2.0, 4.0)):
+        assert abs(np.log10(band(Pm, lo, hi))) < abs(np.log10(band(Pp, lo, hi))), (lo, hi)
+    assert band(Pm, 0.5, 1.0) < 0.1
+    _, Pb = psd(out["mrac_bias_no_delay"])  # with our bias
+    assert abs(np.log10(band(Pb, 2.0, 4.0))) < abs(np.log10(band(Pp, 2.0, 4.0)))
+    assert band(Pb, 0.5, 1.0) < 0.1 and abs(np.log10(band(Pb, 0.5, 1.0))) > abs(np.log10(band(Pp, 0.5, 1.0)))
+    _, Pi = psd(out["mrac_bias_no_delay"], "body_acc")
+    assert band(Pi, 0.5, 1.0) > 10 * band(Pb, 0.5, 1.0)
 
 
 def test_stiffness_drift_mrac_holds_level_passive_sags(request):

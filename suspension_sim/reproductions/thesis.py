@@ -797,7 +797,7 @@ def ch4_dirt(ctx) -> ItemOutput:
     ax[1].set_xlabel("frequency (Hz)")
     ax[1].set_ylabel("body acc PSD (m²/s⁴/Hz)")
     ax[1].legend(fontsize=7)
-    fig.suptitle("Thesis Ch. 4 (Figs. 4.9–4.12): dirt road at 20 m/s, exact stick-slip friction; printed law "
+    fig.suptitle("Thesis Ch. 4 (Figs. 4.9–4.12): dirt road at 20 m/s, exact stick-slip friction;\nprinted law "
                  "(no bias) with and without the 0.05 s delay, ours with the bias without it", fontsize=9)
     fig.tight_layout()
     key = {"passive_ratio_res": (r["passive"][1], 0.1), "passive_ratio_hi": (r["passive"][3], 0.1),
