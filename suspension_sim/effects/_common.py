@@ -39,6 +39,18 @@ def corner_array(effect, name: str) -> np.ndarray:
     return np.broadcast_to(arr, (n, k)).astype(float)
 
 
+def per_car(effect, name: str) -> list:
+    """Parameter ``name`` of ``effect`` (one value, or one per car when the effect is stacked over a batch) as a
+    list of ``n_cars`` values: for per-car switches such as ``law`` and ``step_force``."""
+    value = getattr(effect.p, name)
+    return value if isinstance(value, list) else [value] * effect.ctx.n_cars
+
+
+def step_mean_column(effect) -> np.ndarray:
+    """``(n_cars, 1)``: 1.0 for a car whose ``step_force`` is ``mean``, else 0.0 (the kernels' flag row)."""
+    return np.array([1.0 if sf == "mean" else 0.0 for sf in per_car(effect, "step_force")]).reshape(-1, 1)
+
+
 def _flat(v) -> bool:
     return all(isinstance(x, (int, float)) for x in v)
 

@@ -9,7 +9,7 @@ from pydantic import Field
 
 from ..components import Params
 from ..registry import EFFECTS
-from ._common import PerCornerNonNeg, PerCornerPos, corner_array
+from ._common import PerCornerNonNeg, PerCornerPos, corner_array, step_mean_column
 from ..free_parameters import FreeParameter
 from .base import Effect
 
@@ -166,8 +166,7 @@ class BumpStop(Effect):
 
     def kernel_data(self):
         g_c, g_e = self.gaps()
-        steps = self.p.step_force if isinstance(self.p.step_force, list) else [self.p.step_force] * self.ctx.n_cars
-        mean = np.array([1.0 if sf == "mean" else 0.0 for sf in steps]).reshape(-1, 1)  # per car
+        mean = step_mean_column(self)  # per car
         return (self.pack(g_c, g_e, corner_array(self, "stiffness"), corner_array(self, "damping"), mean),
                 self.pack(0.0))
 

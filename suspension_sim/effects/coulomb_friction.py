@@ -10,7 +10,7 @@ from pydantic import Field, model_validator
 
 from ..components import Params
 from ..registry import EFFECTS
-from ._common import PerCornerNonNeg, PerCornerPos, corner_array, reduced_mass
+from ._common import PerCornerNonNeg, PerCornerPos, corner_array, per_car, reduced_mass
 from ..free_parameters import FreeParameter
 from .base import Effect
 
@@ -225,10 +225,9 @@ class CoulombFriction(Effect):
 
     def kernel_data(self):
         Fc = corner_array(self, "force")
-        laws = self.p.law if isinstance(self.p.law, list) else [self.p.law] * self.ctx.n_cars
-        steps = self.p.step_force if isinstance(self.p.step_force, list) else [self.p.step_force] * self.ctx.n_cars
+        pairs = zip(per_car(self, "law"), per_car(self, "step_force"))
         code = np.array([(3.0 if sf == "mean" else 0.0) if lw != "tanh" else 2.0 if sf == "mean" else 1.0
-                         for lw, sf in zip(laws, steps)]).reshape(-1, 1)  # per car
+                         for lw, sf in pairs]).reshape(-1, 1)  # per car
         tanh = code == 1.0  # the start-of-step tanh law (the mean over the step is implicit: no chatter)
         m_r = np.broadcast_to(reduced_mass(self.ctx), Fc.shape)
         v_eps = corner_array(self, "v_eps")

@@ -4,12 +4,11 @@ from __future__ import annotations
 from typing import Literal
 
 import numba
-import numpy as np
 from pydantic import Field
 
 from ..components import Params
 from ..registry import EFFECTS
-from ._common import PerCornerNonNeg, corner_array
+from ._common import PerCornerNonNeg, corner_array, step_mean_column
 from ..free_parameters import FreeParameter
 from .base import Effect
 
@@ -69,6 +68,5 @@ class QuadraticDamping(Effect):
     kernel = staticmethod(_kernel)
 
     def kernel_data(self):
-        steps = self.p.step_force if isinstance(self.p.step_force, list) else [self.p.step_force] * self.ctx.n_cars
-        mean = np.array([1.0 if sf == "mean" else 0.0 for sf in steps]).reshape(-1, 1)  # per car
+        mean = step_mean_column(self)  # per car
         return self.pack(corner_array(self, "c_v"), mean), self.pack(0.0, 0.0)
