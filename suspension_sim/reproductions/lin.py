@@ -84,8 +84,15 @@ def six_panels(res, styles, t0, t1, title):
     return fig
 
 
-def _inside(rng, axes, cols):
-    return "reproduced" if not outside({c: rng[c] for c in cols}, {c: axes[c] for c in cols}) else "not"
+FITTED = "consistent (fitted: ε1 is chosen to fit these axes, not a test)"
+
+
+def _inside(rng, axes, cols, fitted=False):
+    """The verdict of an axis row: "not" when a curve leaves the paper's axis; inside, "reproduced", or for the axes
+    that ε1 was fitted to (Fig. 2's), :data:`FITTED`: a fit cannot fail on the data it was fitted to."""
+    if outside({c: rng[c] for c in cols}, {c: axes[c] for c in cols}):
+        return "not"
+    return FITTED if fitted else "reproduced"
 
 
 EPS1_CAVEAT = ("Reproduced only given the filter constant ε1 = 0.01 1/s, which the paper does not print: it is "
@@ -109,15 +116,15 @@ def fig2(ctx) -> ItemOutput:
               f"{J['mb_minus_ka_plus']:.2f} m/s² (spread {spread:.1%})",
               "reproduced" if spread < 0.05 else "not"),
         Claim("body acceleration, all three curves (axis −9…12 m/s²)", "within the axis",
-              f"{env['body_acc'][0]:.1f}…{env['body_acc'][1]:.1f} m/s²", _inside(env, ax, ["body_acc"])),
+              f"{env['body_acc'][0]:.1f}…{env['body_acc'][1]:.1f} m/s²", _inside(env, ax, ["body_acc"], fitted=True)),
         Claim("load pressure (axis −1e7…5e6 Pa)", "within the axis",
               f"{env['act.load_pressure'][0]:.3g}…{env['act.load_pressure'][1]:.3g} Pa",
-              _inside(env, ax, ["act.load_pressure"])),
-        Claim("body travel (axis 0…0.025 m)", "peak ≤ 2.5 cm", f"{zmax * 100:.2f} cm", _inside(env, ax, ["body_z"])),
+              _inside(env, ax, ["act.load_pressure"], fitted=True)),
+        Claim("body travel (axis 0…0.025 m)", "peak ≤ 2.5 cm", f"{zmax * 100:.2f} cm", _inside(env, ax, ["body_z"], fitted=True)),
         Claim("suspension travel, wheel travel, valve opening (axes ±0.085, −0.03…0.09, ±0.01 m)", "within the axes",
               f"{env['travel'][0] * 100:.2f}…{env['travel'][1] * 100:.2f} cm, {env['wheel_z'][0] * 100:.2f}…"
               f"{env['wheel_z'][1] * 100:.2f} cm, |x_v| ≤ {max(map(abs, env['act.spool_position'])) * 1000:.1f} mm",
-              _inside(env, ax, ["travel", "wheel_z", "act.spool_position"])),
+              _inside(env, ax, ["travel", "wheel_z", "act.spool_position"], fitted=True)),
     ]
     fig = six_panels(res, {"known": "k-", "mb_plus_ka_minus": "r--", "mb_minus_ka_plus": "b:"}, 0.0, 3.0,
                      "Lin & Kanellakopoulos Fig. 2: errors in M_b and K_a (non-adaptive)")
@@ -240,7 +247,7 @@ def harshness(ctx) -> ItemOutput:
         Claim("known-parameter run, default reading (ε = 1.5, ε1 = 0.01)", "inside all six axes of Fig. 2",
               f"acc {d['body_acc'][0]:.1f}…{d['body_acc'][1]:.1f} m/s², body ≤ {d['body_z'][1] * 100:.2f} cm, "
               f"P_L {d['act.load_pressure'][0]:.3g}…{d['act.load_pressure'][1]:.3g} Pa",
-              "reproduced" if not outside(d, AXES[2]) else "not"),
+              FITTED if not outside(d, AXES[2]) else "not"),
         Claim("the same, earlier reading ε1 = ε = 1.5", "inside all six axes of Fig. 2",
               f"acc up to {o['body_acc'][1]:.1f} m/s², body {o['body_z'][1] * 100:.2f} cm, P_L up to "
               f"{o['act.load_pressure'][1]:.3g} Pa (outside: {', '.join(outside(o, AXES[2])) or 'none'})",
