@@ -207,3 +207,8 @@ def test_varying_tracking_beats_the_best_frozen_estimate(varying):
     ref = varying["reference"].ts
     assert _nrmse(varying["controlled"].ts.body_z, ref.body_z) < 0.1
     assert _nrmse(frozen.ts.body_z, ref.body_z) > 0.1
+    # Fig. 10, ṽ → 0: the adaptive estimator's error over the last 4 s is under half the frozen baseline's (measured
+    # 0.46 against 1.49 mm/s over 10 s), so a small ṽ is the adaptation's doing, not the estimator filter's alone
+    def verr(ts):
+        return _rms(ts["ctrl.v_err"][ts.t > ts.t.iloc[-1] - 4.0])
+    assert verr(varying["controlled"].ts) < 0.5 * verr(frozen.ts)
