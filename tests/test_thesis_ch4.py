@@ -230,6 +230,45 @@ def test_dirt_road_without_loop_delay_ours_follows_reference_printed_law_overatt
     assert band(Pi, 0.5, 1.0) > 10 * band(Pb, 0.5, 1.0)
 
 
+def test_dirt_road_adaptation_moves_the_printed_law_away_from_the_reference(request):
+    """Is the Ch. 4 dirt road's "partly" the adaptation's?  The same printed law with adaptation off (`mrac_off`,
+    `mrac_off_no_delay`: Θ held at the nominal design) is the baseline.  Body-acceleration PSD over the reference's
+    (acceleration averaged over each 1 ms log step), 8–24 s: with the 0.05 s delay the nominal design held is closer
+    to the reference than the adaptive law at 0.5–2 Hz (measured 3.6, 6.2 against 426, 65: the estimates still
+    moving); without the delay it is closer at 0.25–2 Hz (1.2, 1.7, 1.9 against 0.0008, 0.005, 0.025: the adaptive
+    law over-attenuates) and already closer than passive in every band from 0.5 to 4 Hz, the item's rule for
+    "partly".  So the thesis's "adapts, then follows" is not shown: adaptation moves the law away from the reference
+    at low frequency (page, Ch. 4 dirt road; over the item's 12–60 s the same, the adaptive law closer only at 2–8 Hz
+    with the delay)."""
+    def edit(raw):
+        raw["sim"]["duration"] = 24.0
+
+    out = run_variants(request.config.rootpath, "thesis_ch4_dirt", edit,
+                       variants=("passive", "mrac", "mrac_off", "mrac_no_delay", "mrac_off_no_delay"))
+    fs = 1.0 / (out["passive"].t[1] - out["passive"].t[0])
+
+    def psd(ts, col=None):
+        t = ts.t.to_numpy()
+        x = ts[col].to_numpy()[t > 8] if col else (np.diff(ts.body_vel.to_numpy()) * fs)[t[1:] > 8]
+        return welch(x, fs=fs, nperseg=4096)
+
+    f, Pref = psd(out["mrac"], "ctrl.ref_acc")
+
+    def dist(k, lo, hi):  # log distance of the band ratio to the reference's
+        P = psd(out[k])[1]
+        s = (f >= lo) & (f < hi)
+        return abs(np.log10(np.mean(P[s]) / np.mean(Pref[s])))
+
+    for lo, hi in ((0.5, 1.0), (1.0, 2.0)):
+        assert dist("mrac_off", lo, hi) < dist("mrac", lo, hi), (lo, hi)
+    for lo, hi in ((0.25, 0.5), (0.5, 1.0), (1.0, 2.0)):
+        assert dist("mrac_off_no_delay", lo, hi) < dist("mrac_no_delay", lo, hi), (lo, hi)
+    for lo, hi in ((0.5, 1.0), (1.0, 2.0), (2.0, 4.0)):
+        assert dist("mrac_off_no_delay", lo, hi) < dist("passive", lo, hi), (lo, hi)
+    th = [c for c in out["mrac_off"].columns if c.startswith("ctrl.theta.")]
+    assert all(np.ptp(out["mrac_off"][c]) <= 1e-4 * abs(out["mrac_off"][c].iloc[0]) for c in th)  # Θ held
+
+
 def test_stiffness_drift_mrac_holds_level_passive_sags(request):
     """Parameter variations mode I (compressed: K −20 % as a ramp over 2–10 s, C_v −50 % at 8 s) with the load step
     (+150 kg at 4–10 s): after the load is removed the softer spring carries less of the static load (Eq. 4.1,
