@@ -174,7 +174,7 @@ def _reproduce_thesis(tmp_path, items):
     return d, json.loads((d / "summary.json").read_text())
 
 
-# the thesis in two tests: the Ch. 4 load step (RK4 at 0.0625 ms with its 64-run ensemble at both steps) costs as
+# the thesis in two tests: the Ch. 4 load step (RK4 at 0.0625 ms with its ensemble at both steps) costs as
 # much as every other item together, and either half can be run on its own
 THESIS_CH4_LOAD_STEP = "ch4_load_step"
 
@@ -221,12 +221,13 @@ def test_reproduce_thesis_ch4_load_step(tmp_path):
     assert abs(k4["mrac_force"] - 150 * 9.81) < 200 and k4["wrong_theta_gap_60s"] < 0.25
     # Ch. 4 step halving (RK4 at 0.0625 ms): every deterministic key converged, the wrong design's level and following
     # too (they wandered with implicitfast's step, the page), the remaining Θ gap compared against its initial value.
-    # The chaotic Q variant's 64-run means, medians and fraction past the stops are statistical keys (with the
-    # standard error of their change); they are not asserted to agree: on halving the force's whole distribution
-    # moved up ≈ 100 N (median 1438 ± 27 -> 1561 ± 22 N), which the check reports as not converged (the page)
+    # The chaotic Q variant's ensemble means, medians and fraction past the stops are statistical keys (with the
+    # standard error of their change); they are not asserted to agree: with the stops and orifice damper held over
+    # each step the force's whole distribution moved up ≈ 100 N on halving (median 1438 ± 27 -> 1561 ± 22 N), with
+    # their means (the scenario's setting) 1473 ± 20 -> 1461 ± 27 N, undecided at 64 runs (the page)
     c4 = s["ch4_load_step"]["convergence"]
     q = [k for k in c4 if k.startswith("q_ensemble_")]  # means, medians and the fraction past the stops
-    assert len(q) == 6
+    assert len(q) == 7
     assert all(c["converged"] for k, c in c4.items() if k not in q), c4
     assert all(c4[k]["change_se"] > 0 and "status" in c4[k] for k in q), c4
 

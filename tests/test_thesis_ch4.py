@@ -269,34 +269,33 @@ def test_dirt_road_adaptation_moves_the_printed_law_away_from_the_reference(requ
     assert all(np.ptp(out["mrac_off"][c]) <= 1e-4 * abs(out["mrac_off"][c].iloc[0]) for c in th)  # Θ held
 
 
-def test_stiffness_drift_mrac_holds_level_passive_sags(request):
-    """Parameter variations mode I (compressed: K −20 % as a ramp over 2–10 s, C_v −50 % at 8 s) with the load step
-    (+150 kg at 4–10 s): after the load is removed the softer spring carries less of the static load (Eq. 4.1,
-    K(t)·δ_st), and the passive rig stays down where the 1000 N friction catches it (anywhere within ±F/K = ±0.2 m
-    of its spring equilibrium: the exact stick-slip friction does not creep, so the drift alone, 0.2·M*·g = 490 N
-    < F, would not move it); the law with our bias (κ = 1, Q = 0, `drift_mrac`) is back within the 2 cm of the page's claim after the
-    load is removed (not chaotic: see the Ch. 4 ensemble table), which the passive rig and the same law with
-    adaptation off fail."""
+def test_stiffness_drift_printed_law_holds_level_after_the_load_passive_sags(request):
+    """Parameter variations mode I (K −20 % as a ramp over 10–50 s, C_v −50 % at 30 s) with the load step (+150 kg
+    at 20–40 s), at the thesis's timing and the scenario's own step (RK4 at 0.0625 ms: the printed law cancels its
+    design's sampling zero, page), run to 50 s: after the load is removed (42–50 s) the softer spring carries less of
+    the static load (Eq. 4.1, K(t)·δ_st), and the passive rig stays down where the 1000 N friction catches it
+    (anywhere within ±F/K = ±0.2 m of its spring equilibrium: the exact stick-slip friction does not creep, so the
+    drift alone, 0.2·M*·g = 490 N < F, would not move it).  The printed law (κ = 1, Q = 0, no bias: `drift_mrac`, the
+    default) and the law with our bias (`drift_mrac_bias`) are each back within the page's 2 cm, which the passive rig
+    and the printed law with adaptation off fail; under the load (30–40 s) neither law holds the 2 cm (the page's
+    "partly", pinned).  Not chaotic (the Ch. 4 ensemble table); compressed to 20 s the printed law had not yet
+    recovered (−2.8 cm 2–10 s after the load)."""
     def edit(raw):
-        raw["sim"]["duration"] = 20.0
-        raw["sim"].update(FAST_STEP)
-        var = raw["variants"]["drift_passive"]["vehicle"]["variations"]
-        var[:] = [{"param": "sprung_mass", "kind": "step", "mode": "add", "times": [4, 10], "values": [150, 0]},
-                  {"param": "spring_stiffness", "kind": "ramp", "mode": "scale", "times": [0, 2, 10],
-                   "values": [1.0, 1.0, 0.8]},
-                  {"param": "effects.quadratic_damping.c_v", "kind": "step", "mode": "scale", "times": [8],
-                   "values": [0.5]}]
-        raw["variants"]["drift_mrac"]["vehicle"]["variations"] = var
-        # the non-adaptive baseline on the same drifts: the same law with adaptation off (as `mrac_off`)
-        raw["variants"]["drift_mrac_off"] = {"vehicle": {"variations": var},
-                                             "controller": {"params": {"p0": 1.0e-12, "bias": True}}}
+        raw["sim"]["duration"] = 50.0
+        # the non-adaptive baseline on the same drifts: the printed law with adaptation off (as `mrac_off`; a bias
+        # parameter would stay at its initial 0)
+        raw["variants"]["drift_mrac_off"] = {"vehicle": raw["variants"]["drift_passive"]["vehicle"],
+                                             "controller": {"params": {"p0": 1.0e-12}}}
 
-    out = run_variants(request.config.rootpath, "thesis_ch4_load_step", edit,
-                       variants=("drift_passive", "drift_mrac", "drift_mrac_off"))
-    zm, zp, zo = (np.mean(window(out[k], 12, 20, "body_z")) for k in ("drift_mrac", "drift_passive", "drift_mrac_off"))
-    assert abs(zm) < 0.02
-    assert zp < -0.05 and abs(zp) > 3 * abs(zm)
-    assert abs(zo) > 0.02  # adaptation off fails the 2 cm bound too (measured −11.5 cm; adaptive −1.4, passive −14.1)
+    names = ("drift_passive", "drift_mrac", "drift_mrac_bias", "drift_mrac_off")
+    out = run_variants(request.config.rootpath, "thesis_ch4_load_step", edit, variants=names)
+    after = {k: np.mean(window(out[k], 42, 50, "body_z")) for k in names}
+    under = {k: np.mean(window(out[k], 30, 40, "body_z")) for k in names}
+    for law in ("drift_mrac", "drift_mrac_bias"):
+        assert abs(after[law]) < 0.02, after
+        assert abs(under[law]) > 0.02, under  # the level under the load is not held (pinned: partly)
+    assert after["drift_passive"] < -0.05, after  # the baselines fail the 2 cm bound after the load
+    assert abs(after["drift_mrac_off"]) > 0.02, after
 
 
 @pytest.mark.slow
