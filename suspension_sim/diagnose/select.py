@@ -446,6 +446,7 @@ class Selector:
     skip_at_floor = True  # a round after the first is not fitted at the floor (module docstring, "Speed")
     sensor_zero_rule = True  # rule (g) of the module docstring (off: the baseline of its test)
     joint_zero = True  # rule (g)'s joint explanation: a sag-moving candidate also fitted with its own zero
+    joint_model = True  # ... and any candidate joining a model with a mass the search freed (_joint_applies)
     def __init__(self, rec: Record, spec: ModelSpec, split: float = 0.7, test_record: Record | None = None,
                  floors: dict | None = None, candidates: list[str] | None = None, max_effects: int = 3,
                  screen_samples: int = 8000, min_excess_drop: float = 0.10, z_min: float = 2.0,
@@ -700,14 +701,26 @@ class Selector:
         sag = sag_params(self.rec.kind)
         return any(isinstance(c, ParameterCandidate) and c.pname in sag for c in cands)
 
-    def _joint_applies(self, cands, spec: ModelSpec) -> bool:
+    def _joint_applies(self, cands, spec: ModelSpec, spec_c: ModelSpec | None = None) -> bool:
         """Rule (g)'s joint explanation applies: the model's position sensors read zero at the nominal ride
-        height, a position channel is measured, and the candidates move the sag.  Such a candidate is fitted
-        twice: plainly (its sag shows in the positions) and beside a free offset on every position channel
-        (the positions read from the car's own equilibrium: a heavier car re-levelled, or zeroed where it
-        settled); the lower training BIC is judged."""
-        return (self.sensor_zero_rule and self.joint_zero and spec.position_zero == "nominal"
-                and bool(self._position_channels()) and self._moves_sag(cands))
+        height, a position channel is measured, and the candidates move the sag, or the model they join
+        (``spec_c``, the candidates added) holds a sag-moving parameter an earlier step freed.  Such a
+        candidate is fitted twice: plainly (its sag shows in the positions) and with the positions read from the
+        car's own equilibrium (a heavier car re-levelled, or zeroed where it settled); the lower training BIC
+        is judged.  Where a heavier car settles depends on every force law of the model (a cubic spring or a
+        stop carries part of its weight), so the convention is the whole model's, asked again whenever a
+        candidate joins a model with a freed mass: a mass named plainly while the cubic spring was missing
+        (the own zero did not pay then) left a cubic spring, added later, no way to the truth's pair (blind
+        battery two_heavier_cubic_own: a 5 / 42 mm asymmetric stop stood in for it, 6.4× the floor)."""
+        if not (self.sensor_zero_rule and self.joint_zero and spec.position_zero == "nominal"
+                and self._position_channels()):
+            return False
+        if self._moves_sag(cands):
+            return True
+        if spec_c is None or not self.joint_model:
+            return False
+        sag, user = sag_params(self.rec.kind), {f.name for f in self.spec.free}
+        return any(f.name in sag and f.name not in user for f in spec_c.free)
 
     def _offsets_of(self, fr: FitResult) -> dict:
         """The offsets of the position channels (SI units: what the sensors read at the nominal ride height):
@@ -984,7 +997,7 @@ class Selector:
                     # starts would fit the same nothing again (the full car's single-corner friction record:
                     # the rear axle's and the empty corner's placements, about a quarter of round 1's time)
                     break
-            if self._joint_applies(cands, current_spec):
+            if self._joint_applies(cands, current_spec, spec_c):
                 # rule (g), the joint explanation: the same candidates with the positions read from the model's
                 # own equilibrium (the sag is not in the record: each set's rest positions are subtracted,
                 # Problem.rest); the lower training BIC of the two is judged (the same parameters: a choice of
