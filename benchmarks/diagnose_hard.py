@@ -93,6 +93,19 @@ def case_half_axle(seed):
     return rec, model, {"asymmetric_damping@front"}, d
 
 
+def case_half_maxwell(seed):
+    """Half car, each damper on a compliant mount (maxwell_damper, k_b 47 kN/m against c 1250 N·s/m: its force
+    fades above 6 Hz) on both axles: the library's Maxwell law beyond the quarter car it was checked on."""
+    outs = ["body_acc_front", "body_acc_rear", "susp_travel_front", "susp_travel_rear", "pitch_rate"]
+    h = 1.0 / (2 * np.pi * 6.0 * truth.HC_NOMINAL["damping_front"])
+    d = truth.simulate_truth_half(8.0, 500.0, {"maxwell_damper": {"compliance": h}}, seed=seed, noise=0.02,
+                                  outputs=outs)
+    rec = record_from_arrays("half_car", d["time"], {"road_front": d["road_front"], "road_rear": d["road_rear"]},
+                             {k: d[k] for k in outs})
+    model = {"model": "half_car", "params": {**truth.HC_NOMINAL, "damping_front": "free", "damping_rear": "free"}}
+    return rec, model, {"maxwell_damper"}, d
+
+
 def case_beyond(seed):
     """A law not in the library: damping that grows with the stroke, F = −c_s·s²·v."""
     d = truth.simulate_truth("quarter_car", 10, 1000, {"stroke_damping": {"c_s": 3e6}}, seed=seed, road_rms=0.02,
@@ -223,6 +236,13 @@ def case_full_heavier(seed):
     return rec, {"model": "full_car", "params": FC_KNOWN, "position_zero": "nominal"}, {"parameter:sprung_mass"}, d
 
 
+def case_full_maxwell(seed):
+    """Full car, every damper on a compliant mount (maxwell_damper, 1.3·10⁻⁵ m/N: k_b 77 kN/m, the front
+    dampers' force fading above 7.2 Hz, the rear's above 8.4 Hz), from the project's own plant and law."""
+    rec, d = full_car(seed, {"maxwell_damper": {"compliance": 1.3e-5}})
+    return rec, {"model": "full_car", "params": FC_KNOWN}, {"maxwell_damper"}, d
+
+
 def case_heavier_own(seed):
     """The quarter car of ``heavier`` (sprung mass +30 %) with its positions from its own equilibrium (the truth
     re-levels: no sag in the travel), while the model keeps the default ``position_zero: nominal`` (the user
@@ -244,7 +264,8 @@ CASES = {"compound": case_compound, "heavier": case_heavier, "lag": case_lag, "n
          "vehicle2": case_vehicle2, "half_axle": case_half_axle, "beyond": case_beyond,
          "suv_bumps": case_suv_bumps, "suv_null": case_suv_null, "full_null": case_full_null,
          "full_front_friction": case_full_front_friction, "full_compound": case_full_compound,
-         "full_heavier": case_full_heavier, "heavier_own": case_heavier_own, "full_heavier_own": case_full_heavier_own}
+         "full_heavier": case_full_heavier, "heavier_own": case_heavier_own, "full_heavier_own": case_full_heavier_own,
+         "half_maxwell": case_half_maxwell, "full_maxwell": case_full_maxwell}
 
 
 def run_case(name, seed=0, out=None, log=None):

@@ -217,9 +217,11 @@ def simulate_truth_half(duration: float, fs: float, effects: dict, params: dict 
     unless its parameters say ``axle: front`` or ``axle: rear`` (then on that axle only).
 
     Written from the Lagrangian of the rigid body independently of the fast simulator: with the corner
-    heights z_c = z − x_c·θ, the body equations are M·z̈ = Σ F_c and I·θ̈ = −Σ x_c·F_c."""
+    heights z_c = z − x_c·θ, the body equations are M·z̈ = Σ F_c and I·θ̈ = −Σ x_c·F_c.  A Maxwell damper
+    (``maxwell_damper`` {compliance h}) puts each corner's damper c on a mount of compliance h: its force R obeys
+    dR/dt = (v − R/c)/h (one state per corner) and replaces the damper's c·v."""
     bad = set(effects) - {"coulomb_friction", "quadratic_damping", "asymmetric_damping", "bump_stop",
-                          "cubic_stiffness", "tire_liftoff"}
+                          "cubic_stiffness", "tire_liftoff", "maxwell_damper"}
     if bad:
         raise ValueError(f"half-car truth does not implement {sorted(bad)}")
     rng = np.random.default_rng(seed)
@@ -227,14 +229,18 @@ def simulate_truth_half(duration: float, fs: float, effects: dict, params: dict 
     p = dict(HC_NOMINAL)
     p.update(params or {})
     road, roadd = random_signal(rng, duration, band[0], band[1], road_rms)
-    eff = {k: v for k, v in effects.items() if k != "tire_liftoff"}
+    eff = {k: v for k, v in effects.items() if k not in ("tire_liftoff", "maxwell_damper")}
     lift = "tire_liftoff" in effects
+    mx = effects.get("maxwell_damper")
     M, I, a, b = p["sprung_mass"], p["pitch_inertia"], p["a"], p["b"]
     L = a + b
     corners = [(+a, "front", 0.0, b / L), (-b, "rear", wheelbase_delay, a / L)]
 
     def road_at(tt, d):
         return (float(road(tt - d)), float(roadd(tt - d))) if tt - d >= 0 else (float(road(0.0)), 0.0)
+
+    def maxwell_at(e):
+        return mx is not None and mx.get("axle", e) == e and mx["compliance"] > 0
 
     def parts(tt, X):
         z, vz, th, vth = X[:4]
@@ -244,7 +250,8 @@ def simulate_truth_half(duration: float, fs: float, effects: dict, params: dict 
             s = z - xc * th - zu
             v = vz - xc * vth - vu
             mine = {k: q for k, q in eff.items() if q.get("axle", e) == e}
-            F = -p[f"spring_stiffness_{e}"] * s - p[f"damping_{e}"] * v + _suspension_extra(mine, s, v, {})
+            fd = X[8 + j] if maxwell_at(e) else p[f"damping_{e}"] * v
+            F = -p[f"spring_stiffness_{e}"] * s - fd + _suspension_extra(mine, s, v, {})
             r, rd = road_at(tt, d)
             st = (M * share + p[f"unsprung_mass_{e}"]) * G
             ft = st - p[f"tire_stiffness_{e}"] * (zu - r) - p[f"tire_damping_{e}"] * (vu - rd)
@@ -260,9 +267,12 @@ def simulate_truth_half(duration: float, fs: float, effects: dict, params: dict 
         out = [X[1], sum(Fs) / M, X[3], -sum(xc * F for (xc, *_), F in zip(corners, Fs)) / I]
         for j, (xc, e, d, share) in enumerate(corners):
             out += [X[5 + 2 * j], (-Fs[j] + Ft[j]) / p[f"unsprung_mass_{e}"]]
+        for j, (xc, e, d, share) in enumerate(corners):  # the Maxwell dampers' forces
+            v = X[1] - xc * X[3] - X[5 + 2 * j]
+            out.append((v - X[8 + j] / p[f"damping_{e}"]) / mx["compliance"] if maxwell_at(e) else 0.0)
         return out
 
-    sol = solve_ivp(rhs, (0, t[-1]), np.zeros(8), t_eval=t, method="DOP853", rtol=1e-7, atol=1e-10,
+    sol = solve_ivp(rhs, (0, t[-1]), np.zeros(10), t_eval=t, method="DOP853", rtol=1e-7, atol=1e-10,
                     max_step=5.0 / fs)
     X = sol.y
     clean = {}
