@@ -28,7 +28,7 @@ OUT3 = ["body_acc", "wheel_acc", "susp_travel"]
 NAMES = {"coulomb": "coulomb_friction", "stops": "bump_stop", "asym": "asymmetric_damping",
          "cubic": "cubic_stiffness", "lag": "actuator_lag", "liftoff": "tire_liftoff",
          "mass": "parameter:sprung_mass", "quad": "quadratic_damping", "maxwell": "maxwell_damper"}
-BEYOND = {"dahl"}  # truth laws outside the library: the right answer is nothing, or one stand-in
+BEYOND = {"dahl", "digressive"}  # truth laws outside the library: the right answer is nothing, or one stand-in
 
 
 # ------------------------------------------------------------------------------------------------------
@@ -181,6 +181,47 @@ RECORDS = {
                                   noise=(0.02, "pink"), zero_own=True),
     "maxwell_van_iso": dict(veh="van", road=("iso", dict(cls="D", speed=20)),
                             hidden={"maxwell": dict(corner=(6.0, 9.0))}, noise=(0.02, "white")),
+    # --- blind5: what the independent checks may probe and no record above holds.  Sensor scale errors
+    # (``scale``: the channel reads that multiple of the truth, its bias included), a record decimated by its
+    # logger (``decimate``: simulated and sensed at q·fs, anti-alias filtered and kept every q-th sample), a
+    # short record, noise on some channels only or band-limited (``noise`` levels and colours per channel),
+    # three effects at once, unusual corners (blind_truth.VEHICLES limo / racer / inwheel), a road that is
+    # smooth but for rare bumps, and a damper law beyond the library (a blow-off valve: digressive) ---
+    "null_sedan_scale": dict(veh="sedan", road=("iso", dict(cls="C", speed=20)), hidden={}, noise=(0.02, "white"),
+                             scale={"body_acc": 1.04, "susp_travel": 0.97}, accept=[set()]),
+    "cubic_sedan_scale_bias": dict(veh="sedan", road=("iso", dict(cls="D", speed=15)),
+                                   hidden={"cubic": dict(rel=(0.3, 0.5))}, noise=(0.02, "white"), bias=(0.2, 0.5),
+                                   scale={"wheel_acc": 0.96}),
+    "stops_sedan_decimated": dict(veh="sedan", road=("bumps", dict(speed=10, h=(0.03, 0.07), bg="A")),
+                                  hidden={"stops": dict(q=(0.98, 0.99), sides="both")}, noise=(0.02, "white"),
+                                  fs=250.0, decimate=8, duration=16.0),
+    "coulomb_sedan_short": dict(veh="sedan", road=("iso", dict(cls="D", speed=18)),
+                                hidden={"coulomb": dict(rel=(0.2, 0.3))}, noise=(0.02, "white"), duration=3.0),
+    "asym_sedan_band_body": dict(veh="sedan", road=("iso", dict(cls="C", speed=20)),
+                                 hidden={"asym": dict(ratio=(2.0, 3.0))},
+                                 noise=([0.04, 0.005, 0.005], ["band", "white", "white"])),
+    "lag_suv_brown_travel": dict(veh="suv", road=("iso", dict(cls="B", speed=15)), force=("random", dict(rms=900.0)),
+                                 hidden={"lag": dict(tau=(0.02, 0.035))},
+                                 noise=([0.01, 0.01, 0.03], ["pink", "white", "brown"])),
+    "three_coulomb_stops_asym": dict(veh="sedan", road=("iso", dict(cls="D", speed=15)),
+                                     hidden={"coulomb": dict(rel=(0.15, 0.25)), "stops": dict(q=(0.975, 0.99), sides="both"),
+                                             "asym": dict(ratio=(2.0, 3.0))}, noise=(0.02, "white")),
+    "three_lag_cubic_coulomb": dict(veh="van", road=("iso", dict(cls="C", speed=18)), force=("random", dict(rms=2000.0)),
+                                    hidden={"lag": dict(tau=(0.02, 0.035)), "cubic": dict(rel=(0.3, 0.5)),
+                                            "coulomb": dict(rel=(0.15, 0.25))}, noise=(0.02, "white")),
+    "cubic_limo_soft": dict(veh="limo", road=("iso", dict(cls="C", speed=25)), hidden={"cubic": dict(rel=(0.3, 0.5))},
+                            noise=(0.02, "white")),
+    "stops_racer_stiff": dict(veh="racer", road=("iso", dict(cls="C", speed=30)),
+                              hidden={"stops": dict(q=(0.98, 0.99), sides="comp")}, noise=(0.02, "white")),
+    "coulomb_inwheel": dict(veh="inwheel", road=("iso", dict(cls="C", speed=20)),
+                            hidden={"coulomb": dict(rel=(0.15, 0.3))}, noise=(0.02, "white")),
+    "null_sedan_rare_bumps": dict(veh="sedan", road=("bumps", dict(speed=15, bg="A", h=(0.03, 0.05), gaps=(40.0, 60.0))),
+                                  hidden={}, noise=(0.02, "white")),
+    "stops_sedan_rare_bumps": dict(veh="sedan", road=("bumps", dict(speed=15, bg="A", h=(0.04, 0.06), gaps=(40.0, 60.0))),
+                                   hidden={"stops": dict(q=(0.985, 0.995), sides="both")}, noise=(0.02, "white")),
+    "digressive_van_iso": dict(veh="van", road=("iso", dict(cls="D", speed=20)),
+                               hidden={"digressive": dict(knee=(0.8, 1.2), ratio=(0.25, 0.4))}, noise=(0.02, "white"),
+                               accept="one"),
 }
 
 
@@ -189,6 +230,8 @@ def build(name: str, seed: int = 0, duration: float | None = None, fs: float | N
     spec = RECORDS[name]
     duration = duration or spec.get("duration", 8.0)
     fs = fs or spec.get("fs", 1000.0)
+    q_dec = int(spec.get("decimate", 1))
+    fs = fs * q_dec  # a decimated record is simulated and sensed at q·fs
     rng = np.random.default_rng([seed, sum(map(ord, name))])
     veh = dict(bt.VEHICLES[spec["veh"]])
     road = _road(rng, spec["road"][0], duration, **spec["road"][1])
@@ -254,6 +297,9 @@ def build(name: str, seed: int = 0, duration: float | None = None, fs: float | N
             hidden[key] = dict(k_b=kb)
             truth["maxwell.k_b"] = kb
             truth["maxwell_damper.compliance"] = 1.0 / kb
+        elif key == "digressive":  # a blow-off valve: the rate drops to ``ratio``·c above the knee (× std(v))
+            hidden[key] = dict(v_k=u(p["knee"]) * float(np.std(v)), ratio=u(p["ratio"]))
+            truth.update({"digressive.v_k": hidden[key]["v_k"], "digressive.ratio": hidden[key]["ratio"]})
     if "liftoff" in hid_spec:  # scale the road until the wheel leaves it on the wanted share of samples
         want = u(hid_spec["liftoff"]["share"])
         Ft = lin["tire_force_total"]
@@ -276,9 +322,10 @@ def build(name: str, seed: int = 0, duration: float | None = None, fs: float | N
     level, colour = spec["noise"]
     n = len(d["time"])
     colours = colour if isinstance(colour, (list, tuple)) else [colour] * 3
+    levels = level if isinstance(level, (list, tuple)) else [level] * 3
     meas = {}
-    for ch, col in zip(OUT3, colours):
-        meas[ch] = d[ch] + level * np.std(d[ch]) * bt.noise(rng, n, col)
+    for ch, col, lv in zip(OUT3, colours, levels):
+        meas[ch] = d[ch] + lv * np.std(d[ch]) * bt.noise(rng, n, col)
     b_body, b_wheel = spec.get("bias", (0.0, 0.0))
     meas["body_acc"] += b_body
     meas["wheel_acc"] += b_wheel
@@ -295,8 +342,19 @@ def build(name: str, seed: int = 0, duration: float | None = None, fs: float | N
     for ch, q in (spec.get("clip") or {}).items():  # a sensor that saturates at the q-quantile of |signal|
         lim = float(np.quantile(np.abs(meas[ch]), q))
         meas[ch] = np.clip(meas[ch], -lim, lim)
+    for ch, g in (spec.get("scale") or {}).items():  # a sensor whose gain is off (it reads g × what it sees)
+        meas[ch] = g * meas[ch]
     for ch, q in (spec.get("quant") or {}).items():  # a sensor quantised to steps of q
         meas[ch] = q * np.round(meas[ch] / q)
+    if q_dec > 1:  # the logger's anti-alias filter (zero-phase FIR) and every q-th sample, on every channel
+        from scipy.signal import decimate
+
+        dec = lambda x: decimate(x, q_dec, ftype="fir", zero_phase=True)  # noqa: E731
+        d = {**d, "time": d["time"][::q_dec], "road": dec(d["road"]), "force": dec(d["force"]),
+             **{c: dec(d[c]) for c in OUT3}}
+        meas = {c: dec(x) for c, x in meas.items()}
+        n = len(d["time"])
+        info["decimated_from_hz"] = fs
     params = dict(veh)
     params["damping"] = {"value": veh["damping"], "free": True}
     model = {"model": "quarter_car", "params": params, "position_zero": spec.get("zero", "nominal")}

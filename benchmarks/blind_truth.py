@@ -48,6 +48,14 @@ VEHICLES = {
                 tire_stiffness=450000.0, tire_damping=0.0),
     "truck": dict(sprung_mass=3150.0, unsprung_mass=430.0, spring_stiffness=410000.0, damping=19500.0,
                   tire_stiffness=1.75e6, tire_damping=0.0),
+    # unusual corners: a very soft limousine (body mode 0.75 Hz), a very stiff race car (2.9 Hz, stiff tyre), and
+    # a sedan with in-wheel motors (unsprung mass a quarter of the sprung: the wheel mode near 9 Hz)
+    "limo": dict(sprung_mass=520.0, unsprung_mass=55.0, spring_stiffness=11800.0, damping=1500.0,
+                 tire_stiffness=250000.0, tire_damping=0.0),
+    "racer": dict(sprung_mass=230.0, unsprung_mass=30.0, spring_stiffness=80000.0, damping=4200.0,
+                  tire_stiffness=400000.0, tire_damping=0.0),
+    "inwheel": dict(sprung_mass=385.0, unsprung_mass=96.0, spring_stiffness=25500.0, damping=2100.0,
+                    tire_stiffness=235000.0, tire_damping=0.0),
 }
 ISO_GD = {"A": 16e-6, "B": 64e-6, "C": 256e-6, "D": 1024e-6, "E": 4096e-6}  # Gd(n0 = 0.1 c/m), m³
 
@@ -276,7 +284,8 @@ def simulate(vehicle: dict, hidden: dict, road, force, duration: float, fs: floa
     ``mass`` (true sprung mass, kg), ``asym`` {c_comp, c_reb} (total damping rates replacing ``damping``),
     ``cubic`` {k3} (N/m³ about the nominal ride height), ``stops`` {gap_c, gap_e (None = no stop), k, c},
     ``coulomb`` {force, v_eps (default 1 mm/s)}, ``lag`` {tau} (s), ``liftoff`` (bool),
-    ``quad`` {c_v} (N·s²/m²), ``dahl`` {force, x_y} (a Dahl friction element of level F_c and pre-sliding
+    ``quad`` {c_v} (N·s²/m²), ``digressive`` {v_k, ratio} (a damper with a blow-off valve: the rate ``damping`` up to
+    the knee rate v_k, ``ratio`` × it beyond, on both sides: outside the diagnose library), ``dahl`` {force, x_y} (a Dahl friction element of level F_c and pre-sliding
     displacement x_y = F_c/σ, beside the linear damper), ``maxwell`` {k_b} (the linear damper in series with a
     bushing of stiffness k_b).  ``times``: the instants actually sampled (default k/fs; jittered sampling)."""
     road_src, force_src = road, force
@@ -299,6 +308,7 @@ def simulate(vehicle: dict, hidden: dict, road, force, duration: float, fs: floa
     tau = hidden.get("lag", {}).get("tau", 0.0)
     lift = bool(hidden.get("liftoff"))
     dahl, mx = hidden.get("dahl"), hidden.get("maxwell")
+    dig = hidden.get("digressive")
 
     def susp(s, v, Fa, z=0.0):
         """Suspension force on the body without friction (N, + up), incl. the preload; ``z`` the internal
@@ -307,6 +317,9 @@ def simulate(vehicle: dict, hidden: dict, road, force, duration: float, fs: floa
             fd = z
         elif asym:
             fd = (asym["c_reb"] if v > 0 else asym["c_comp"]) * v
+        elif dig:
+            av = abs(v)
+            fd = math.copysign(c * av if av <= dig["v_k"] else c * dig["v_k"] + dig["ratio"] * c * (av - dig["v_k"]), v)
         else:
             fd = c * v
         F = F_s0 - k * s - fd - k3 * s ** 3 - cq * v * abs(v) + Fa
@@ -424,12 +437,15 @@ def _static_equilibrium(fsusp, ms, mu, kt, F_t0):
 # sensors
 # ------------------------------------------------------------------------------------------------------
 def noise(rng, n: int, colour: str) -> np.ndarray:
-    """Unit-std noise: white, pink (1/f power) or brown (1/f² power above 0.2 Hz at 1 kHz), by FFT shaping."""
+    """Unit-std noise: white, pink (1/f power), brown (1/f² power above 0.2 Hz at 1 kHz) or band-limited (flat
+    between 2 % and 8 % of the sample rate, 20–80 Hz at 1 kHz: a sensor's resonance or electrical pickup; nothing
+    elsewhere), by FFT shaping."""
     w = rng.standard_normal(n)
     if colour == "white":
         return w
     f = np.fft.rfftfreq(n)
     f0 = 2e-4  # the lowest shaped frequency (0.2 Hz at 1 kHz)
-    shape = {"pink": 1.0 / np.sqrt(np.maximum(f, f0)), "brown": 1.0 / np.maximum(f, f0)}[colour]
+    shape = {"pink": 1.0 / np.sqrt(np.maximum(f, f0)), "brown": 1.0 / np.maximum(f, f0),
+             "band": ((f >= 0.02) & (f <= 0.08)).astype(float)}[colour]
     x = np.fft.irfft(np.fft.rfft(w) * shape, n)
     return x / np.std(x)
