@@ -23,7 +23,12 @@ class ScenarioError(ValueError):
 
 class SimulationDiverged(RuntimeError):
     """The simulation produced NaN or a runaway state.  ``source`` (scenario file) and ``variant`` (the run's
-    name) are added by :meth:`locate` where they are known, so the message says which run diverged."""
+    name) are added by :meth:`locate` where they are known, so the message says which run diverged.
+
+    :attr:`log` is the run's log up to the stop (one DataFrame per car, the columns of ``Result.ts``), kept by
+    :class:`~suspension_sim.simulation.Simulation` so that a diverged run need not be run again to show what led
+    to the stop; None where no log was kept (an exception raised elsewhere, a log streamed to disk in chunks,
+    or one that crossed a process boundary: pickling drops it)."""
 
     def __init__(self, time: float, state: dict, hint: str, car: int | None = None, source: str | None = None,
                  variant: str | None = None):
@@ -33,7 +38,22 @@ class SimulationDiverged(RuntimeError):
         self.car = car
         self.source = source
         self.variant = variant
+        self._log_src = None  # a callable that builds the log (it references the log buffer until .log is read)
+        self._log = None
         super().__init__(self._message())
+
+    def keep_log(self, build) -> "SimulationDiverged":
+        """Keep the log up to the stop: ``build()`` returns it (one DataFrame per car), called on the first use of
+        :attr:`log`, so a stop nobody looks at costs no copy of the log.  Returns self."""
+        self._log_src, self._log = build, None
+        return self
+
+    @property
+    def log(self):
+        """Per car, the DataFrame of every log instant before the stop (t first), or None (see the class)."""
+        if self._log is None and self._log_src is not None:
+            self._log, self._log_src = self._log_src(), None
+        return self._log
 
     def _message(self) -> str:
         st = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in self.state.items())

@@ -168,6 +168,17 @@ class Logger:
     def frame(self, i: int) -> pd.DataFrame:
         return frame(["t", *self.ch], [self.t] + [arr[i] for arr in self.ch.values()])
 
+    def keep_until(self, err) -> None:
+        """Hand a divergence stop (:class:`~suspension_sim.errors.SimulationDiverged`) the log instants before
+        it: both loops have written every instant before the step at which the check failed (the stop's own
+        instant is not logged).  Not for a log streamed in chunks (the earlier chunks went to the sink)."""
+        if self.streamed or not self.ch:
+            return
+        k = int(round(err.time / self.dt))  # the physics step at which the check failed
+        rows = max(0, min(self.cap, -(-k // self.log_every)))
+        t, ch, n = self.t, dict(self.ch), self.n
+        err.keep_log(lambda: [frame(["t", *ch], [t[:rows]] + [a[i, :rows] for a in ch.values()]) for i in range(n)])
+
 
 def frame(names: list, arrs: list, shared: dict | None = None) -> pd.DataFrame:
     if all(a.dtype == np.float64 for a in arrs):

@@ -67,7 +67,11 @@ class Simulation(System):
         with one_blas_thread(), _located(self):
             if mode is not None:
                 logger = self.new_logger()
-                wall = run_compiled(self, mode, progress, logger)
+                try:
+                    wall = run_compiled(self, mode, progress, logger)
+                except SimulationDiverged as err:  # the log up to the stop goes with it (no rerun to see it)
+                    logger.keep_until(err)
+                    raise
                 self.results = self.results_of(logger, wall)
                 return self.results
             readings = self.start(progress)
@@ -94,6 +98,9 @@ class Simulation(System):
         except StopIteration as stop:
             self.results = self.results_of(self._logger, stop.value)
             return None
+        except SimulationDiverged as err:  # the log up to the stop goes with it (no rerun to see it)
+            self._logger.keep_until(err)
+            raise
 
 
 @contextlib.contextmanager

@@ -206,6 +206,32 @@ def test_divergence_is_reported_at_the_same_time(monkeypatch):
     assert errs[True] == errs[False]
 
 
+@pytest.mark.parametrize("compiled", [True, False], ids=["compiled", "python"])
+def test_divergence_keeps_the_log_up_to_the_stop(compiled, monkeypatch):
+    """A run that stops on the divergence check carries its log up to the stop (``SimulationDiverged.log``), so a
+    figure of the runaway needs no rerun: every log instant before the stop, and value for value the log of the
+    same run cut short before it (what the rerun gave).  An exception made elsewhere has none."""
+    raw = {"name": "unstable", "vehicle": {"model": "quarter_car",
+                                           "effects": [{"type": "bump_stop", "params": {"gap": 0.001, "stiffness": 1e10}}]},
+           "road": {"type": "sine", "params": {"amplitude": 0.03, "frequency": 2.0}, "speed": 20.0},
+           "sensors": [{"type": "corner_body_vel"}],
+           "controller": {"type": "skyhook"}, "sim": {"duration": 2.0}}
+    sc = parse_scenario(raw)
+    monkeypatch.setenv("SUSPENSION_SIM_COMPILED", "1" if compiled else "0")
+    with pytest.raises(SimulationDiverged) as ei:
+        Simulation([sc]).run()
+    e = ei.value
+    log = e.log[0]
+    t = log.t.to_numpy()
+    assert len(t) > 10 and t[-1] < e.time <= t[-1] + sc.sim.log_dt + 1e-12, (t[-1], e.time)
+    assert np.array_equal(t, np.arange(len(t)) * sc.sim.log_dt)  # every instant before the stop, none after
+    short = parse_scenario({**raw, "sim": {"duration": round(e.time - 5 * sc.sim.log_dt, 6)}})
+    ts = Simulation([short]).run()[0].ts
+    assert len(ts) < len(log) and list(ts.columns) == list(log.columns)
+    assert log.iloc[:len(ts)].reset_index(drop=True).equals(ts.reset_index(drop=True))
+    assert SimulationDiverged(0.1, {}, "h").log is None
+
+
 def test_progress_and_log_hooks_see_every_log_step(monkeypatch):
     monkeypatch.setenv("SUSPENSION_SIM_COMPILED", "1")
     sc = _bench_like(1)[0]

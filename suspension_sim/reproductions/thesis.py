@@ -919,17 +919,15 @@ def _only_printed_diverge(dv, allowed=("mimo_mrac_thesis", "mimo_fixed_thesis", 
             raise e_
 
 
-def _until_stop(ctx, name, variant, e, margin=0.03):
-    """A run that stopped on the divergence check (``e``), rerun up to ``margin`` before its stop, for the figure
-    (the printed law beside ours; at the item's own step only: the half-step run draws no figure); None if not
-    run or if it still stops."""
-    if ctx.step_factor != 1.0 or e is None or e.time <= margin + 0.01:
+def _until_stop(ctx, e, margin=0.03):
+    """A run that stopped on the divergence check (``e``): its log up to ``margin`` before the stop (the instants
+    a rerun of ``e.time − margin`` s would log), kept by the run itself (``SimulationDiverged.log``: no rerun), for
+    the figure (the printed law beside ours; at the item's own step only: the half-step run draws no figure);
+    None without a log."""
+    if ctx.step_factor != 1.0 or e is None or e.time <= margin + 0.01 or e.log is None:
         return None
-    sc = ctx.variants(name, [f"sim.duration={e.time - margin:.4f}"], only=[variant])[variant]
-    try:
-        return run_each(ctx, {variant: sc}, f"{name}: {variant} until its stop")[variant].ts
-    except SimulationDiverged:
-        return None
+    ts = e.log[e.car or 0]
+    return ts[ts.t.to_numpy() < round(e.time - margin, 4)]
 
 
 def _draw_until_stop(axx, ts_, col, scale, style, label, e):
@@ -1057,7 +1055,7 @@ def ch7_braking(ctx) -> ItemOutput:
         if k in ts:
             ax[0].plot(ts[k].t, np.degrees(ts[k].pitch), s, lw=0.8, label=lab)
         elif k in dv:
-            tk = _until_stop(ctx, "thesis_ch7_braking", k, dv[k])
+            tk = _until_stop(ctx, dv[k])
             _draw_until_stop(ax[0], tk, "pitch", 180 / np.pi, s, lab, dv[k])
             _draw_until_stop(ax[1], tk, "body_z", 1000.0, s, lab, None)
     ax[0].set_ylabel("pitch (°, nose down +)")
@@ -1223,7 +1221,7 @@ def ch7_road(ctx) -> ItemOutput:
     ax[0].plot(m.t, 1000 * ref.body_z, "k:", lw=0.7, label="reference")
     ax[1].plot(m.t, np.degrees(ref.pitch), "k:", lw=0.7)
     if "mimo_mrac_thesis" in dv:  # the printed law (κ = 1, no bias) until its divergence stop
-        tp = _until_stop(ctx, "thesis_ch7_road", "mimo_mrac_thesis", dv["mimo_mrac_thesis"])
+        tp = _until_stop(ctx, dv["mimo_mrac_thesis"])
         _draw_until_stop(ax[0], tp, "body_z", 1000.0, "c-", "printed (κ = 1, no bias)", dv["mimo_mrac_thesis"])
         _draw_until_stop(ax[1], tp, "pitch", 180 / np.pi, "c-", "printed", None)
     ax[2].plot(m.t, m.actuator_force_front, "b-", lw=0.5, label="front (leading)")
@@ -1487,7 +1485,7 @@ def ch7_dirt(ctx) -> ItemOutput:
         ax[0, 0].plot(ts[k].t, 1000 * ts[k].body_z, s_, lw=0.4, label=k)
     ax[0, 0].plot(m.t, 1000 * ref.body_z, "k:", lw=0.6, label="reference")
     if "mimo_mrac_thesis" in div:  # the printed law (κ = 1, no bias) until its divergence stop
-        _draw_until_stop(ax[0, 0], _until_stop(ctx, "thesis_ch7_dirt", "mimo_mrac_thesis", div["mimo_mrac_thesis"]),
+        _draw_until_stop(ax[0, 0], _until_stop(ctx, div["mimo_mrac_thesis"]),
                          "body_z", 1000.0, "c-", "printed (κ = 1, no bias)", div["mimo_mrac_thesis"])
     ax[0, 0].set_ylabel("bounce (mm)")
     ax[0, 0].set_xlabel("time (s)")
@@ -2025,7 +2023,7 @@ def ch6(ctx) -> ItemOutput:
             ax[i].plot(ts["adaptive_thesis"].t, 1000 * ts["adaptive_thesis"].travel_secondary, "c-", lw=0.6,
                        label="printed")
         elif "adaptive_thesis" in dv:
-            _draw_until_stop(ax[i], _until_stop(ctx, name, "adaptive_thesis", dv["adaptive_thesis"]),
+            _draw_until_stop(ax[i], _until_stop(ctx, dv["adaptive_thesis"]),
                              "travel_secondary", 1000.0, "c-", "printed", dv["adaptive_thesis"])
         ax[i].set_ylabel(f"{short}: sec. travel (mm)", fontsize=8)
         ax[i].legend(fontsize=7, ncol=4)
