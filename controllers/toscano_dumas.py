@@ -28,7 +28,16 @@ Not given by the paper, chosen: α = 200 1/s; λ_k = 1e12, λ_b = 1e10.  ṽ is 
 frequencies degrades the gradient direction unless α is well above them (α = 20 1/s, 43° at 3 Hz, tracked the
 paper's time-varying stiffness with 0.8× the error of the constant nominal guess; α = 200 with λ scaled
 accordingly, 0.56×).  With Δx ≈ 1–2 cm and Δv ≈ 0.2 m/s the constant-case estimates settle within ≈ 1 s.
-Initial estimates ``beta_k0``, ``beta_b0`` (default 0: the controller starts knowing nothing, so F_m = k_r Δx + b_r Δv at first).  F_m in the estimator
+Initial estimates ``beta_k0``, ``beta_b0`` (default 0: the controller starts knowing nothing, so F_m = k_r Δx + b_r Δv at first).
+
+The known-parameter reference (not an adaptive law; a baseline the adaptive one should approach): with
+``known_k_sine`` and/or ``known_b_sine`` = [amplitude, frequency Hz, phase rad] the estimates are *held* at the
+schedule β̂_k^i(t) = beta_k0 + A_k·sin(2πf_k·t + φ_k), β̂_b^i(t) = beta_b0 + A_b·sin(2πf_b·t + φ_b) at every
+control instant (every rule alike, so f̂ = the schedule exactly: the ψ sum to 1), with no adaptation; the one
+not given is held at its constant beta_0.  Given the plant's true k_M(t), b_M(t) (the ``varying_stiffness``
+effect's and a ``sine`` variation's convention, the same formula), the law (28) and the estimator (20) then act
+with the truth: the controller the paper's adaptation tries to become.  With λ = 0 and no schedule the
+estimates are held at beta_0 (the constant known-parameter case).  F_m in the estimator
 is the commanded force (``force_sensor`` = an actuator_force sensor name uses the measured force instead).
 M defaults to the corner's static load / g.
 
@@ -78,12 +87,18 @@ class ToscanoDumasParams(Params):
     velocity_sensor: str = "corner_body_vel"
     force_sensor: Optional[str] = Field(None, description="measured actuator force sensor for the estimator "
                                                           "(default: the commanded force)")
+    known_k_sine: Optional[list[float]] = Field(
+        None, min_length=3, max_length=3, description="[amplitude N/m, frequency Hz, phase rad]: hold the "
+        "stiffness estimates at beta_k0 + A·sin(2πft + φ), no adaptation (the known-parameter reference)")
+    known_b_sine: Optional[list[float]] = Field(
+        None, min_length=3, max_length=3, description="[amplitude N·s/m, frequency Hz, phase rad]: hold the "
+        "damping estimates at beta_b0 + A·sin(2πft + φ), no adaptation (the known-parameter reference)")
 
 
 # the law ---------------------------------------------------------------------------------------------------
 (_P_KREF, _P_BREF, _P_OTR, _P_ORATE, _P_OVEL, _P_OF, _P_NK, _P_NB, _P_MEMBK, _P_MEMBB, _P_AK, _P_AB, _P_HK,
- _P_HB) = range(14)
-_NP = 14  # then the rule centres m_k (nk), m_b (nb), then per corner λ_k/M, λ_b/M, e^(−α·dt), M
+ _P_HB, _P_HOLD, _P_K0, _P_KA, _P_KW, _P_KPH, _P_B0, _P_BA, _P_BW, _P_BPH) = range(23)
+_NP = 23  # then the rule centres m_k (nk), m_b (nb), then per corner λ_k/M, λ_b/M, e^(−α·dt), M
 # membership codes: 0 the two-rule triangle pair of Eq. (33), 1 triangles on a grid, 2 gaussians
 
 
@@ -132,7 +147,9 @@ def _expand(st, o_beta, o_psi, n, o_tmp):
 @numba.njit(cache=True)
 def _kernel(t, y, p, st, u):
     """The law for one car: estimator (20) and gradient law (27) over the last control step (explicit Euler
-    from the previous step's regressors, the α term exactly), then the control (28) with the new estimates."""
+    from the previous step's regressors, the α term exactly), then the control (28) with the new estimates.
+    Held (p[_P_HOLD] = 1, the known-parameter reference): no gradient step, the estimates are set to their
+    schedule at t instead."""
     nc = u.shape[0]
     nk, nb = int(p[_P_NK]), int(p[_P_NB])
     dt = st[1]
@@ -170,10 +187,18 @@ def _kernel(t, y, p, st, u):
             st[o_vhat + c] = v_hat
             v_err = v - v_hat
             st[o_verr + c] = v_err
+            if p[_P_HOLD] == 0.0:
+                for i in range(nk):
+                    st[o_bk + c * nk + i] = st[o_bk + c * nk + i] + dt * gk * st[o_pk0 + 2 * c * nk + i] * (dx0 * v_err)
+                for i in range(nb):
+                    st[o_bb + c * nb + i] = st[o_bb + c * nb + i] + dt * gb * st[o_pb0 + 2 * c * nb + i] * (dv0 * v_err)
+        if p[_P_HOLD] != 0.0:  # the known-parameter reference: the estimates are the schedule (the truth)
+            bk_t = p[_P_K0] + p[_P_KA] * np.sin(p[_P_KW] * t + p[_P_KPH])
+            bb_t = p[_P_B0] + p[_P_BA] * np.sin(p[_P_BW] * t + p[_P_BPH])
             for i in range(nk):
-                st[o_bk + c * nk + i] = st[o_bk + c * nk + i] + dt * gk * st[o_pk0 + 2 * c * nk + i] * (dx0 * v_err)
+                st[o_bk + c * nk + i] = bk_t
             for i in range(nb):
-                st[o_bb + c * nb + i] = st[o_bb + c * nb + i] + dt * gb * st[o_pb0 + 2 * c * nb + i] * (dv0 * v_err)
+                st[o_bb + c * nb + i] = bb_t
         _basis(dx, nk, int(p[_P_MEMBK]), p[_P_AK], p, m0, p[_P_HK], st, o_pk0 + 2 * c * nk)
         _basis(dv, nb, int(p[_P_MEMBB]), p[_P_AB], p, m0 + nk, p[_P_HB], st, o_pb0 + 2 * c * nb)
         fk = _expand(st, o_bk + c * nk, o_pk0 + 2 * c * nk, nk, o_tmp)  # approximators (15)
@@ -236,6 +261,14 @@ class ToscanoDumas(Controller):
                                                        start(p.velocity_sensor))
         P[:, _P_OF] = start(p.force_sensor) if p.force_sensor else -1.0
         P[:, _P_NK], P[:, _P_NB] = nk, nb
+        P[:, _P_K0], P[:, _P_B0] = col(p.beta_k0), col(p.beta_b0)
+        for j, (key, o_a) in enumerate((("known_k_sine", _P_KA), ("known_b_sine", _P_BA))):
+            v = getattr(p, key)
+            rows = v if (isinstance(v, list) and v and (v[0] is None or isinstance(v[0], list))) else [v] * n
+            for i, r in enumerate(rows):  # per car: [A, f, φ] or None (held at beta_0 if the other is given)
+                if r is not None:
+                    P[i, _P_HOLD] = 1.0
+                    P[i, o_a:o_a + 3] = r[0], 2 * np.pi * r[1], r[2]
         # the ranges and memberships are the ensemble's (the largest range)
         ukmax, ubmax = float(np.max(p.range_dx)), float(np.max(p.range_dv))
         P[:, _P_AK], P[:, _P_AB] = ALPHA_K * 0.2 / ukmax, ALPHA_B * 20.0 / ubmax  # the pair's slope

@@ -255,6 +255,34 @@ def test_toscano_law_against_the_equations(membership, nk, nb):
             _close(sig["v_err"][i, c], v_err, rel=1e-9)  # a difference of close numbers
 
 
+def test_toscano_known_parameter_hold():
+    """``known_k_sine`` / ``known_b_sine``: the estimates are held at beta_0 + A·sin(2πft + φ) at every control
+    instant (no gradient step, whatever λ), so the control (28) acts with the scheduled values; the same car
+    without the schedule adapts (its estimates leave beta_0)."""
+    base = dict(beta_k0=15000.0, beta_b0=1500.0, lambda_k=1e12, lambda_b=1e10)
+    cases = [dict(base, known_k_sine=[5000.0, 0.4, 0.3], known_b_sine=[500.0, 0.7, -1.0]),
+             dict(base, known_b_sine=[500.0, 0.7, -1.0]),  # stiffness held at its constant beta_k0
+             dict(base)]
+    sensors = [dict(type="travel"), dict(type="travel_rate"), dict(type="corner_body_vel")]
+    sim = Simulation([_quarter(dict(type="toscano_dumas", params=c), sensors) for c in cases])
+    ctrl = sim.controller
+    Tc = ctrl.ctx.control_dt
+    rng = np.random.default_rng(5)
+    for k in range(6):
+        t = 0.37 + k * Tc
+        y = _readings(ctrl, rng, dict(travel=0.02, travel_rate=0.3, corner_body_vel=0.3))
+        u = ctrl.step(t, y)
+        sig = _signals(ctrl)
+        for i, (ka, kph) in enumerate(((5000.0, 0.3), (0.0, 0.0))):
+            kt = 15000.0 + ka * math.sin(2 * math.pi * 0.4 * t + kph)
+            bt = 1500.0 + 500.0 * math.sin(2 * math.pi * 0.7 * t - 1.0)
+            dx, dv = -y["travel"][i, 0], -y["travel_rate"][i, 0]
+            _close(sig["fk_hat"][i, 0], kt, rel=1e-13)
+            _close(sig["fb_hat"][i, 0], bt, rel=1e-13)
+            _close(u[i, 0], (10000.0 - kt) * dx + (1000.0 - bt) * dv, rel=1e-11)
+    assert abs(sig["fk_hat"][2, 0] - 15000.0) > 1.0 and abs(sig["fb_hat"][2, 0] - 1500.0) > 0.1  # λ acts unheld
+
+
 def test_toscano_bases_are_the_paper_pair():
     from suspension_sim.controllers.toscano_dumas import ALPHA_B, ALPHA_K, basis
 
@@ -461,7 +489,9 @@ LOOP_CASES = {
     "open_loop": lambda: [_rig(signal="multisine", frequencies=[1.0, 2.0, 5.0], amplitude=a, fade_in=0.1)
                           for a in (50.0, 80.0)],
     "kim": lambda: [_kim_no_friction(use_fd_dot=fd) for fd in (True, False)],
-    "toscano_dumas": lambda: [_toscano_half(force_sensor="actuator_force", k_ref=k) for k in (10000.0, 8000.0)],
+    "toscano_dumas": lambda: [_toscano_half(force_sensor="actuator_force", k_ref=10000.0),
+                              _toscano_half(force_sensor="actuator_force", k_ref=8000.0, beta_k0=12000.0,
+                                            known_k_sine=[3000.0, 2.0, 0.3])],  # the held (known-parameter) law
     "fallah": lambda: [_from_file("fallah_bump.yaml", 0.3, road=dict(start=0.5), mean_window=0.05, a=a)
                        for a in (4.0, 8.0)],
     "lin_kanellakopoulos": _lin_scs,

@@ -117,20 +117,54 @@ STUDY = {  # label: (overrides, ω_k or None, ω_b or None)
                                     "sensors=[{name: travel, type: travel}, {name: travel_rate, type: travel_rate}, "
                                     "{name: corner_body_vel, type: corner_body_vel}, {name: force, type: actuator_force}]"], WK, WB),
     "road ×2 (more excitation)": (["road.params.amplitudes=[0.04, 0.02, 0.01, 0.004]"], WK, WB),
+    "load cell (measured force in the estimator)": (
+        ["controller.params.force_sensor=force",
+         "sensors=[{name: travel, type: travel}, {name: travel_rate, type: travel_rate}, "
+         "{name: corner_body_vel, type: corner_body_vel}, {name: force, type: actuator_force}]"], WK, WB),
 }
+SPLIT = ("paper's variation (3, 4 rad/s)", "λ ×3", "load cell (measured force in the estimator)")
+SPLIT_FROM = 2.0  # s: the split's window (after the estimates' rise from 0), long enough to separate 3 and 4 rad/s
+
+
+def error_split(ts, params, t0=SPLIT_FROM):
+    """Where the estimate errors come from, over t > t0: f̂_k and f̂_b fitted with a mean and sines at 3 and
+    4 rad/s; the error's RMS split into the *lag* (the own-frequency part: f̂ minus the truth's sine), the
+    *cross-talk* (the other variation's frequency), the mean offset and the *rest* (every other frequency);
+    the own-frequency gain and phase, and the adaptation rate the averaged gradient predicts,
+    λ·E[Δx²]/(α·M²) (λ_b·E[Δv²]/(α·M²); M from the controller's params or 290 kg), beside the rate a first-order
+    lag with the measured phase would need, ω/tan(−phase)."""
+    t = ts.t.to_numpy()
+    m = t > t0
+    t = t[m]
+    A = np.column_stack([np.ones_like(t), np.sin(WK * t), np.cos(WK * t), np.sin(WB * t), np.cos(WB * t)])
+    out = {}
+    for nm, col, mean, amp, w, own, other, reg, lam in (
+            ("k", "ctrl.fk_hat", K0, DK, WK, 1, 3, -ts.travel.to_numpy()[m], params.get("lambda_k", 1e12)),
+            ("b", "ctrl.fb_hat", B0, DB, WB, 3, 1, -ts.travel_rate.to_numpy()[m], params.get("lambda_b", 1e10))):
+        x = ts[col].to_numpy()[m]
+        c = np.linalg.lstsq(A, x, rcond=None)[0]
+        ph = float(np.arctan2(c[own + 1], c[own]))
+        rate = lam * float(np.mean(reg * reg)) / (params.get("alpha", 200.0) * params.get("body_mass", 290.0) ** 2)
+        out[nm] = dict(total=rms(x - mean - amp * np.sin(w * t)), lag=float(np.hypot(c[own] - amp, c[own + 1])) / np.sqrt(2),
+                       cross=float(np.hypot(c[other], c[other + 1])) / np.sqrt(2), mean=float(c[0] - mean),
+                       rest=rms(x - A @ c), gain=float(np.hypot(c[own], c[own + 1])) / amp,
+                       phase=np.degrees(ph), rate=rate, rate_phase=w / np.tan(-ph) if ph < 0 else float("nan"))
+    return out
+
+
+def _verr_last(ts):
+    """RMS ṽ over the last 4 s."""
+    return rms(ts["ctrl.v_err"][ts.t > ts.t.iloc[-1] - 4])
 
 
 def _verr_claim(C, frozen) -> Claim:
     """Fig. 10's ṽ → 0, beside the baseline frozen at the true means (λ = 0): a small ṽ shows the adaptation only
     if the baseline's is clearly larger."""
-    def last(ts):
-        return rms(ts["ctrl.v_err"][ts.t > ts.t.iloc[-1] - 4])
-
-    va = last(C)
+    va = _verr_last(C)
     text = f"RMS ṽ last 4 s {va * 1000:.2f} mm/s (body velocity {rms(C.body_vel) * 1000:.0f} mm/s)"
     if frozen is None:
         return Claim("estimation error ṽ → 0 (Fig. 10)", "converges to zero", text, "reproduced")
-    vf = last(frozen.ts)
+    vf = _verr_last(frozen.ts)
     return Claim("estimation error ṽ → 0 (Fig. 10)", "converges to zero",
                  text + f"; baseline frozen at the true means {vf * 1000:.2f} mm/s",
                  "reproduced" if va < 0.5 * vf else "partly",
@@ -157,11 +191,29 @@ def varying(ctx) -> ItemOutput:
         ref = res["reference road ×2" if "road" in lab else "reference"].ts
         rows.append([lab, f"{e1:.0f} N/m ({e1 / vk:.2f})", f"{e2:.0f} N·s/m ({e2 / vb:.2f})",
                      f"{nrmse(r.body_z, ref.body_z):.3f}", f"{nrmse(r.body_vel, ref.body_vel):.3f}"])
+    if "known" in res:  # the known-parameter reference: the law told k_M(t), b_M(t) (estimates = the truth)
+        K = res["known"].ts
+        e1, e2 = est_errors(K, WK, WB)
+        rows.append(["known parameters (the law told k_M(t), b_M(t))", f"{e1:.0f} N/m ({e1 / vk:.2f})",
+                     f"{e2:.0f} N·s/m ({e2 / vb:.2f})", f"{nrmse(K.body_z, res['reference'].ts.body_z):.3f}",
+                     f"{nrmse(K.body_vel, res['reference'].ts.body_vel):.3f}"])
     # the constant-parameter floor: same controller, constant k_M, b_M
     cst = ctx.run({"constant": ctx.variants("toscano_constant", only=["controlled"])["controlled"]}, label="floor")
     f1, f2 = est_errors(cst["constant"].ts, 0, 0)
     rows.append(["constant k_M, b_M (floor)", f"{f1:.0f} N/m ({f1 / vk:.2f})", f"{f2:.0f} N·s/m ({f2 / vb:.2f})", "—", "—"])
     table = md_table(["case", "f̂_k error (÷ variation RMS 3536)", "f̂_b error (÷ 354)", "NRMSE body z", "NRMSE body v"], rows)
+    srows, split = [], {}
+    for lab in SPLIT:
+        sc = runs[lab if STUDY[lab][0] else "controlled"]
+        split[lab] = sp = error_split(res[lab if STUDY[lab][0] else "controlled"].ts, sc.controller.params)
+        for nm, unit, w in (("k", "N/m", WK), ("b", "N·s/m", WB)):
+            q = sp[nm]
+            srows.append([lab, f"f̂_{nm}", f"{q['total']:.0f} {unit}", f"{q['lag']:.0f}", f"{q['cross']:.0f}",
+                          f"{q['mean']:+.0f}", f"{q['rest']:.0f}", f"{q['gain']:.3f}, {q['phase']:+.1f}°",
+                          f"{q['rate']:.1f}", f"{q['rate_phase']:.1f}"])
+    split_table = md_table(["case", "estimate", f"RMS error after {SPLIT_FROM:g} s", "lag (own ω)",
+                            "cross-talk (other ω)", "mean offset", "rest (other frequencies)",
+                            "own-ω gain, phase", "rate λE[Δ²]/(αM²) (1/s)", "rate from the phase (1/s)"], srows)
     claims = [
         Claim("estimates follow k_M(t), b_M(t) (Fig. 9), from 0", "\"convergence towards the expressions of b_M(t) and k_M(t)\"",
               f"RMS error {ek:.0f} N/m ({ek / vk:.0%} of the variation's RMS), {eb:.0f} N·s/m ({eb / vb:.0%})",
@@ -182,7 +234,34 @@ def varying(ctx) -> ItemOutput:
             f"{tr['body_z'][0]:.3f}, {tr['body_vel'][0]:.3f})",
             "reproduced" if fz > 2 * tr["body_z"][0] else "not",
             "following through the variation needs the adaptation"))
-    notes = ["Why the estimates miss by about half the variation while the car still follows the reference: the "
+    if "known" in res and "frozen_means" in res:
+        R = res["reference"].ts
+        kn = {q: nrmse(res["known"].ts[q], R[q]) for q in ("body_z", "body_vel")}
+        fz = {q: nrmse(res["frozen_means"].ts[q], R[q]) for q in ("body_z", "body_vel")}
+        gap = (fz["body_z"] - tr["body_z"][0]) / (fz["body_z"] - kn["body_z"])
+        ratio = tr["body_z"][0] / kn["body_z"]
+        claims.append(Claim(
+            "the adaptive law approaches the known-parameter case: the same law told k_M(t), b_M(t) at each instant "
+            "(estimates held at the truth, no adaptation), NRMSE", "(implied: adaptive control of unknown, varying "
+            "parameters)", f"known parameters body z {kn['body_z']:.4f}, body v {kn['body_vel']:.4f}; adaptive "
+            f"{tr['body_z'][0]:.3f} ({ratio:.1f}× the known), frozen at the means {fz['body_z']:.3f} "
+            f"({fz['body_z'] / kn['body_z']:.0f}×): the adaptation closes {gap:.0%} of the gap from the frozen law "
+            "to the known one", "reproduced" if ratio < 2 else ("partly" if gap > 0.5 else "not"),
+            "verdict rule: reproduced within 2× the known law's NRMSE, partly when the adaptation closes more than "
+            "half of the frozen-to-known gap; the known law differs from the reference only by the coil's lag"))
+    pk, l3 = split[SPLIT[0]]["k"], split["λ ×3"]["k"]
+    notes = [f"Why about half (the split table): at the chosen gains the averaged gradient's rate for f̂_k is "
+             f"λ_k·E[Δx²]/(α·M²) = {pk['rate']:.1f} 1/s ({pk['rate'] / WK:.1f}× the 3 rad/s variation), and the "
+             f"measured phase of f̂_k at 3 rad/s, {pk['phase']:+.1f}°, is that of a first-order lag of "
+             f"{pk['rate_phase']:.1f} 1/s: the lag is {pk['lag']:.0f} of the {pk['total']:.0f} N/m error "
+             f"({(pk['lag'] / pk['total']) ** 2:.0%} of its mean square).  Tripling λ halves the lag "
+             f"({l3['lag']:.0f} N/m, phase {l3['phase']:+.1f}°) but the error only falls to {l3['total']:.0f} N/m: "
+             f"the rest ({pk['rest']:.0f} → {l3['rest']:.0f} N/m at frequencies other than 3 and 4 rad/s) and the "
+             f"cross-talk ({pk['cross']:.0f} → {l3['cross']:.0f}) do not shrink with the gain, nor with the "
+             f"measured force in the estimator (load cell: rest {split[SPLIT[2]]['k']['rest']:.0f}), so neither the "
+             "gain against the variation's rate nor the coil lag is the main cause; the rest includes the "
+             "wander of the two-rule f̂_k(Δx) that the constant case shows too (its floor row).",
+             "Why the estimates miss by about half the variation while the car still follows the reference: the "
              "gradient law (27) only needs θ̃ᵀφ = (f_k − f̂_k)Δx + (f_b − f̂_b)Δv small, not θ̃.  The rows above "
              "separate the causes: a floor present with constant parameters (f̂_k(Δx) wanders with Δx, β̂¹ ≠ "
              "β̂²); cross-talk (k_M(t) alone or b_M(t) alone leaves errors in both estimates, since k(t)·Δx(t) "
@@ -200,7 +279,15 @@ def varying(ctx) -> ItemOutput:
         key["nrmse_body_z_frozen_means"] = (nrmse(res["frozen_means"].ts.body_z, res["reference"].ts.body_z), 0.005)
         Fm = res["frozen_means"].ts
         key["v_err_rms_frozen_means"] = (rms(Fm["ctrl.v_err"][Fm.t > Fm.t.iloc[-1] - 4]), 1e-4)
-    return ItemOutput(claims, key=key, figure=fig, notes=notes, tables=[table])
+    if "known" in res:
+        K = res["known"].ts
+        key["nrmse_body_z_known"] = (nrmse(K.body_z, res["reference"].ts.body_z), 0.005)
+        key["nrmse_body_v_known"] = (nrmse(K.body_vel, res["reference"].ts.body_vel), 0.005)
+    for lab, tag in ((SPLIT[0], ""), ("λ ×3", "_lambda3")):  # the split's numbers the reading rests on
+        for part in ("lag", "rest", "cross"):
+            key[f"fk_{part}{tag}"] = (split[lab]["k"][part], 100.0)
+        key[f"fb_lag{tag}"] = (split[lab]["b"]["lag"], 10.0)
+    return ItemOutput(claims, key=key, figure=fig, notes=notes, tables=[table, split_table])
 
 
 def nonlinear(ctx) -> ItemOutput:
