@@ -117,6 +117,10 @@ class Controller:
     # car: y its readings (ControlContext.sensor_slice), p and st its rows of kernel_data(), u its command row
     # (n_corners) to fill
     kernel = None
+    # True when the kernel is straight-line arithmetic on its readings and state (no branch, comparison or math
+    # function on them, only on p): the compiled loop then runs it for four cars sharing a parameter row in one
+    # call, lane by lane, with the same numbers (suspension_sim.compiled.lanes)
+    kernel_lanes = False
 
     def kernel_data(self) -> tuple[np.ndarray, np.ndarray]:
         """(p, st): float64 C-contiguous arrays (n_cars, kp) and (n_cars, ks) from the current (reset) state.

@@ -312,6 +312,7 @@ class MRACContinuous(Controller):
     Params = MRACContinuousParams
     requires = ("body_pos", "body_vel", "road", "road_vel")
     kernel = staticmethod(_kernel)
+    kernel_lanes = True  # straight-line in y and st (branches on p only): four cars per call in the compiled loop
 
     def reset(self):
         super().reset()

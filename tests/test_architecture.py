@@ -3,7 +3,7 @@
 Layers, lowest first (a module may import its own layer or lower ones, never a higher one):
 
 0 base        errors, version, channels, kernels, components, registry, buffers, compiled (package), compiled.mj,
-              compiled.numpy_order, compiled.views, limits, strict, safeyaml, outdir, lifecycle, numba_cache,
+              compiled.numpy_order, compiled.views, compiled.lanes, limits, strict, safeyaml, outdir, lifecycle, numba_cache,
               free_parameters
 1 components  vehicles, effects, actuators, roads, sensors, controllers, maneuvers, maneuvers_dlc
 2 config      config
@@ -38,7 +38,7 @@ MODULES = {
     "suspension_sim.outdir": BASE, "suspension_sim.lifecycle": BASE, "suspension_sim.numba_cache": BASE, "suspension_sim.free_parameters": BASE,
     "suspension_sim.kernels": BASE, "suspension_sim.components": BASE, "suspension_sim.registry": BASE,
     "suspension_sim.compiled": BASE, "suspension_sim.compiled.mj": BASE, "suspension_sim.compiled.numpy_order": BASE,
-    "suspension_sim.compiled.views": BASE, "suspension_sim.buffers": BASE,
+    "suspension_sim.compiled.views": BASE, "suspension_sim.compiled.lanes": BASE, "suspension_sim.buffers": BASE,
     "suspension_sim.maneuvers": COMPONENTS, "suspension_sim.maneuvers_dlc": COMPONENTS,
     "suspension_sim.config": CONFIG,
     "suspension_sim.plant": BUILD, "suspension_sim.build": BUILD, "suspension_sim.statics": BUILD,

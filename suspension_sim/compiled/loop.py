@@ -26,8 +26,10 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import os
+import re
 import sys
 import tempfile
+import textwrap
 import threading
 import time as _time
 from pathlib import Path
@@ -38,7 +40,7 @@ import numpy as np
 from .. import buffers
 from ..numba_cache import compile_lock
 
-TEMPLATE_VERSION = 22
+TEMPLATE_VERSION = 23
 
 # PlantState fields a compiled sensor may read (Sensor.kernel_field), by code
 FIELDS = ("body_pos", "body_vel", "body_acc", "corner_body_pos", "corner_body_vel", "corner_body_acc",
@@ -192,8 +194,9 @@ def _sensor_code(sc: int, field: int, simple: bool) -> str:
 
 def generate_source(effects, actuator, controller, sensors=(), shape=None) -> str:
     """Python source of the loop for ``effects`` [(module, name, target, reads the actuator force)], ``actuator`` ((module, force),
-    (module, advance)) and ``controller`` ((module, name) or None for the hybrid loop).  ``shape``: (corners,
-    body dofs) per car, written into the loop as constants (or None: read from the arrays).
+    (module, advance)) and ``controller`` ((module, name) or None for the hybrid loop; (module, name, True): its
+    kernel runs for four cars per call where they share a parameter row, see :mod:`suspension_sim.compiled.lanes`).
+    ``shape``: (corners, body dofs) per car, written into the loop as constants (or None: read from the arrays).
 
     Constant corner and body-dof counts let LLVM unroll the loops over them (a quarter car's are of length 1),
     and the actuator's kernels are inlined at numba's level (:func:`inlined`; LLVM left the actuator's force
@@ -216,8 +219,11 @@ def generate_source(effects, actuator, controller, sensors=(), shape=None) -> st
                   f"    nb = {int(shape[1])}\n"
                   "    if road_q.shape[1] != nc or body_q.shape[1] != nb:\n"
                   "        raise ValueError('compiled loop generated for another number of corners or body dofs')\n")
+    lanes = controller is not None and len(controller) > 2 and bool(controller[2])
     if controller is not None:
         imp.append(f"from {controller[0]} import {controller[1]} as ctrl_kernel")
+    if lanes:
+        imp.append("from suspension_sim.compiled.lanes import block4, block_rows, blocked_get, interleave_blocks, lane_block, lanes4")
     eargs = "".join(f", e{k}_p, e{k}_st, e{k}_map, e{k}_sigj, e{k}_lc, e{k}_pi" for k in range(len(effects)))
     susp_calls, tire_calls, sig_logs = [], [], []
     for k, (_, _, target, reads_fa) in enumerate(effects):
@@ -241,6 +247,24 @@ def generate_source(effects, actuator, controller, sensors=(), shape=None) -> st
 
     ctrl_block = ("                ctrl_kernel(t, row(y, i), row(c_p, c_pi[i]), row(c_st, i), row(cmd, i))\n" if controller is not None
                   else "")
+    if lanes:  # four cars that share the controller's parameter row in one call (compiled.lanes): their sensors
+        # first, then the kernel lane by lane; each car's stages read only that car's data, so reading cars
+        # i+1..i+3 before car i's forces changes no number
+        per_car = sensor_block + "                for c in range(nc):\n                    cmd[i, c] = 0.0\n" + ctrl_block
+        quad = re.sub(r"\bi\b", "i4", sensor_block + "                for c in range(nc):\n                    cmd[i, c] = 0.0\n")
+        four = ", ".join(f"row({{a}}, i + {j})" for j in range(4))
+        ctrl_head = (
+            "                blk = lane_block(c_pi, i, n)\n"
+            "                if blk and i % 4 == 0:\n"
+            "                    for i4 in range(i, i + 4):\n"
+            + textwrap.indent(quad, " " * 8)
+            + f"                    ctrl_kernel(t, lanes4({four.format(a='y')}), row(c_p, c_pi[i]), block4(block_rows(c_st, i // 4)), "
+              f"lanes4({four.format(a='cmd')}))\n"
+            "                elif not blk:\n" + textwrap.indent(per_car, " " * 4))
+        sensor_block, ctrl_block = ctrl_head, ""
+    def unblock(ind):  # before the loop returns: every car's controller state back in its own row
+        return " " * ind + "interleave_blocks(c_st, c_pi, n, False)\n" if lanes else ""
+
     acc_read = any(f in (FIELDS.index("body_acc"), FIELDS.index("corner_body_acc"), FIELDS.index("wheel_acc"))
                    for f, _ in sensors)
     mean_read = any(FIELDS[f].endswith("_acc_mean") for f, _ in sensors)
@@ -275,7 +299,7 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
     order across cars does not change a number, and each car's data is fetched once per step instead of
     once per stage."""
 {shape_code}    n_log = L.shape[0]
-    k = k0
+{"    interleave_blocks(c_st, c_pi, n, True)  # lane blocks' controller states interleaved while the loop runs" + chr(10) if lanes else ""}    k = k0
     skip = resume == 1
     pre_done = resume == 2
     # the acceleration of a step that needs it (need_acc) is computed, and logged, at the start of the next
@@ -288,7 +312,7 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
         t = k * dt
         jr = k - k_chunk0
         if var_hook and not skip and not pre_done and k % sub == 0:
-{acc_flush(" " * 12)}            return PRE + k
+{acc_flush(" " * 12)}{unblock(12)}            return PRE + k
         pre_done = False
         ctrl_now = False
         kc = 0
@@ -328,11 +352,11 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                     if not abs(qvel[free_v[q]]) <= lim_v:
                         bad = True
                 if bad:
-                    return -(k + 1)
+{unblock(20)}                    return -(k + 1)
                 if MEAN_READ or not full_control:  # read by the sensors (Python's, in the hybrid loop)
                     period_mean_acc(qvel, v_ctrl, acc_dofs, acc_period, accm)  # as loop.steps, before the sensors
                 if not full_control:
-                    return k
+{unblock(20)}                    return k
                 # sensors: true value -> delay -> bias + noise -> quantisation -> sample-and-hold
                 kc = kc_arr[0]
                 ns = sens_field.shape[0]
@@ -353,9 +377,7 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
         need_acc = log_now or k == n_steps - 1 or ((k + 1) % sub == 0 and (ACC_READ or not full_control))
         for i in range(n):
             if ctrl_now:
-{sensor_block}                for c in range(nc):
-                    cmd[i, c] = 0.0
-{ctrl_block}            if trap:  # body-wheel damper coupling from the last step's velocity change (loop.trapezoidal_coupling)
+{sensor_block if lanes else sensor_block + "                for c in range(nc):" + chr(10) + "                    cmd[i, c] = 0.0" + chr(10)}{ctrl_block}            if trap:  # body-wheel damper coupling from the last step's velocity change (loop.trapezoidal_coupling)
                 for b in range(nb):
                     fb = 0.0
                     for c in range(nc):
@@ -450,7 +472,7 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                 for q in range(lc_y.shape[0]):
                     Lr[lc_y[q]] = y[i, y_j[q]]
                 for q in range(lc_ctrl.shape[0]):
-                    Lr[lc_ctrl[q]] = c_st[i, ctrl_j[q]]
+                    Lr[lc_ctrl[q]] = {"blocked_get(c_st, i, ctrl_j[q], lane_block(c_pi, i, n))" if lanes else "c_st[i, ctrl_j[q]]"}
 {''.join(sig_logs)}            if need_acc and not rk4:
                 for b in range(nb):
                     v_before[body_v[i, b]] = qvel[body_v[i, b]]
@@ -492,7 +514,7 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
                 acc_log = logw
                 acc_jl = jl
         k += 1
-{acc_flush(" " * 4)}    return k1
+{acc_flush(" " * 4)}{unblock(4)}    return k1
 '''
     return "\n".join(imp) + "\n" + body
 
@@ -576,6 +598,10 @@ def _logged(lc, scratch, *src):
     lc = np.asarray(lc, dtype=np.int64)
     keep = (lc != scratch).reshape(len(lc), -1).any(axis=1) if len(lc) else np.zeros(0, bool)
     return np.ascontiguousarray(lc[keep]), tuple(np.ascontiguousarray(np.asarray(j, dtype=np.int64)[keep]) for j in src)
+
+
+def _lanes_on() -> bool:
+    return os.environ.get("SUSPENSION_SIM_LANES", "1").strip().lower() not in ("0", "false", "no", "off")
 
 
 def _i64(a):
@@ -767,7 +793,10 @@ def run_steps(sim, mode: str, progress=None, logger=None):
         raise RuntimeError(f"actuator {act.name!r}: kernel_states() lacks {missing}")
     act_j = np.array([a_idx[nm] for nm in act_names], dtype=np.int64)
 
-    controller = _kernel_ref(type(ctrl).kernel) if full else None
+    # (module, name, lanes): lanes when the kernel runs four cars per call (Controller.kernel_lanes) and the
+    # SUSPENSION_SIM_LANES switch is not off (the same numbers either way; the switch is for comparing them)
+    controller = (*_kernel_ref(type(ctrl).kernel), bool(getattr(type(ctrl), "kernel_lanes", False)) and _lanes_on()) \
+        if full else None
 
     # sensors (compiled pipeline, full mode) ------------------------------------------------------------
     ns = len(sim.sensors)
