@@ -464,16 +464,17 @@ def test_candidates_come_from_the_registry_declarations():
 
 
 def test_a_corner_placement_is_a_scenario_effect_on_that_corner_only():
-    """What diagnose proposes for bump_stop@rl is an effect the scenario schema accepts on corner rl alone,
-    and a simulation with it has stop force at rl and nowhere else."""
+    """What diagnose proposes for asymmetric_damping@rl is an effect the scenario schema accepts on corner rl
+    alone, and a simulation with it has effect force at rl and nowhere else.  (EffectCandidate.describe is one
+    method for every effect type; this one because the full-car truth of tests/test_diagnose_full_car.py
+    compiles the same loop, the full car with asymmetric_damping: bump_stop@rl was a loop of its own, 8 CPU-s.)"""
     from suspension_sim.config import parse_scenario
     from suspension_sim.diagnose.candidates import library
     from suspension_sim.diagnose.model import load_model
     from suspension_sim.simulation import Simulation
 
-    cand = next(c for c in library(load_model({"model": "full_car"})) if c.name == "bump_stop@rl")
-    eff = cand.describe({"bump_stop@rl.gap_compression": 0.005, "bump_stop@rl.gap_extension": 0.005,
-                         "bump_stop@rl.stiffness": 5e4, "bump_stop@rl.damping": 0.0})["effect"]
+    cand = next(c for c in library(load_model({"model": "full_car"})) if c.name == "asymmetric_damping@rl")
+    eff = cand.describe({"asymmetric_damping@rl.c_comp": 0.0, "asymmetric_damping@rl.c_reb": 1500.0})["effect"]
     assert eff["corners"] == ["rl"]
     sc = parse_scenario({"vehicle": {"model": "full_car", "effects": [eff]},
                          "road": {"type": "sine", "params": {"amplitude": 0.02, "frequency": 1.5}, "speed": 10},
