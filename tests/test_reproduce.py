@@ -207,7 +207,7 @@ def test_reproduce_thesis(tmp_path):
     assert k7["mrac_pitch_deg"] < 0.2 * k7["passive_dive_deg"]
     k6 = s["ch6"]["key"]
     assert k6["random_acc"] > 2.0 * 0.47  # body acceleration ≈ 4× passive on the random road (not reproduced)
-    for item in ("ch3_load_step", "ch3_adaptation", "ch5", "ch6", "ch7_road"):
+    for item in ("ch3_load_step", "ch3_adaptation", "ch3_dirt", "ch5", "ch6", "ch7_braking", "ch7_road", "ch7_dirt"):
         assert all(c["converged"] for c in s[item]["convergence"].values()), item
 
 

@@ -317,6 +317,11 @@ def ch3_adaptation(ctx) -> ItemOutput:
     key["blowoff_follow_nonadaptive"] = (fb["blowoff_nonadaptive"][1], 1e-5)
     key["drift_follow_nonadaptive"] = (fd["drift_nonadaptive_thetad"], 1e-5)
     key["blowoff_theta_dist_end"] = (db[1], 0.05)
+    # the following row's other windows (issue 12 item 3: the page gives each one's change on halving)
+    for k_ in ("adaptive", "nonadaptive"):
+        for (a_, b_), x_ in zip(zip(edges[:-1], edges[1:]), f[k_]):
+            key.setdefault(f"follow_{k_}_{a_}_{b_}", (x_, 1e-5))
+    key["blowoff_follow_adaptive_0_10"] = (fb["blowoff_adaptive"][0], 1e-5)
     return ItemOutput(claims, key=key, figure=fig, notes=[HALF_NOTE])
 
 
@@ -406,7 +411,8 @@ def ch3_dirt(ctx) -> ItemOutput:
                  + (f"stopped at {t_stop:.1f} s (sinks)" if np.isfinite(t_stop) else "ran"), fontsize=9)
     fig.tight_layout()
     key = {"thesis_stop_time": (t_stop, 0.1), "thesis_nonadaptive_stop_time": (t_stop_off, 0.1), "passive_level": (zp, 0.01), "mrac_level": (za, 0.01), "ratio_res": (ra[1], 0.1), "ratio_hi": (ra[3], 0.1),
-           "follow_adaptive": (fa, 1e-3), "follow_nonadaptive": (fn, 1e-3)}
+           "follow_adaptive": (fa, 1e-3), "follow_nonadaptive": (fn, 1e-3), "nonadaptive_level": (zn, 0.01),
+           "mrac_dip": (dip, 0.01)}
     for i_, (lo_, hi_) in enumerate(bands):  # every band of the PSD-ratio rows (adaptive, passive, adaptation off)
         for n_, r_ in (("adaptive", ra), ("passive", rp), ("nonadaptive", rn)):
             key[f"psd_ratio_{n_}_{lo_:g}_{hi_:g}Hz"] = (r_[i_], 0.1)
@@ -1238,6 +1244,26 @@ def ch7_road(ctx) -> ItemOutput:
     key.update({"mrac_bounce_err": (e["mimo_mrac"]["body_z"], 1e-3), "mrac_pitch_err_deg": (deg(e["mimo_mrac"]["pitch"]), 0.05),
                 "passive_bounce_err": (e["passive"]["body_z"], 1e-3), "passive_dive_deg": (dive["passive"], 0.1),
                 "mrac_dive_deg": (dive["mimo_mrac"], 0.1)})
+    # every other number of the rows above (issue 12 item 3: the page gives each one's change on halving): the
+    # baselines of the following and dive rows, the re-adaptation windows, the polarity forces, the printed-law rows
+    key.update({"fixed_bounce_err": (e["mimo_fixed"]["body_z"], 1e-3), "fixed_pitch_err_deg": (deg(e["mimo_fixed"]["pitch"]), 0.05),
+                "passive_pitch_err_deg": (deg(e["passive"]["pitch"]), 0.05), "fixed_dive_deg": (dive["mimo_fixed"], 0.1),
+                "mrac_bounce_err_20_25": (acc_["mimo_mrac"]["body_z"], 1e-3),
+                "mrac_bounce_err_25_40": (cruise["mimo_mrac"]["body_z"], 1e-3),
+                "squat_force_front": (float(a.actuator_force_front.mean()), 100.0),
+                "squat_force_rear": (float(a.actuator_force_rear.mean()), 100.0),
+                "brake_force_front": (float(b.actuator_force_front.mean()), 100.0),
+                "brake_force_rear": (float(b.actuator_force_rear.mean()), 100.0)})
+    if "mimo_fixed_thesis" in ts:
+        key["mimo_fixed_thesis_pitch_err_deg"] = (deg(e["mimo_fixed_thesis"]["pitch"]), 0.05)
+        key["mimo_fixed_thesis_dive_deg"] = (dive["mimo_fixed_thesis"], 0.1)
+        key["mimo_fixed_thesis_dU"] = (_ring(ts["mimo_fixed_thesis"])[0], 100.0)
+    if "mimo_mrac_no_bias" in ts:
+        key["no_bias_pitch_err_deg"] = (deg(e["mimo_mrac_no_bias"]["pitch"]), 0.05)
+    if "wrong_design" in ts:  # the wrong start's partly: its pitch error against the right design's, per window
+        for t0, t1 in ((4, 20), (20, 40), (44, 60)):
+            key[f"wrong_design_pitch_ratio_{t0}_{t1}"] = (w["wrong_design", "pitch", t0] / w["mimo_mrac", "pitch", t0], 0.1)
+            key[f"wrong_fixed_bounce_err_{t0}_{t1}"] = (w["wrong_design_fixed", "body_z", t0], 1e-3)
     return ItemOutput(claims, key=key, figure=fig, notes=[HALF_NOTE])
 
 
@@ -1504,6 +1530,13 @@ def ch7_dirt(ctx) -> ItemOutput:
     key = {"mrac_bounce_err": (e["mimo_mrac"]["body_z"], 1e-3), "q0_bounce_err": (e["mimo_mrac_q0"]["body_z"], 1e-3),
            "fixed_bounce_err": (e["mimo_fixed"]["body_z"], 1e-3), "passive_bounce_err": (e["passive"]["body_z"], 1e-3),
            "q0_acc": (acc["mimo_mrac_q0"], 0.1), **wkey, **pkey}
+    # every other number of the rows above (issue 12 item 3: the page gives each one's change on halving): the pitch
+    # errors, body accelerations, and the gain factors the travel (1–2 Hz) and tire-deflection (6–12 Hz) rows compare
+    for k in names:
+        key[f"{k}_pitch_err_deg"] = (deg(e[k]["pitch"]), 0.05)
+        key[f"{k}_acc"] = (acc[k], 0.1)
+        key[f"{k}_travel_gain_1_2Hz"] = (band(gains[k][1], 1.0, 2.0), 0.1)
+        key[f"{k}_tire_gain_6_12Hz"] = (band(gains[k][2], 6.0, 12.0), 0.1)
     return ItemOutput(claims, key=key, figure=fig, notes=[HALF_NOTE], tables=[table])
 
 
