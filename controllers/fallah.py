@@ -34,8 +34,9 @@ an open-source conic solver (Clarabel, else SCS); infeasibility raises a one-lin
 
 Control law.  Eq. (17): f = −f_max·sgn(B1ᵀP(θ)x), evaluated at the nominal θ = 0 (m_s is unknown to the
 controller; ``theta`` sets another value).  Eq. (18) as printed, f = −f_max/(1 + e^(−a·B1ᵀPx + c)), is
-one-sided (0 … −f_max), which cannot be the smoothed sign function it is said to replace; reconstructed as
-the symmetric sigmoid 2/(1 + e^(−a·s − c)) − 1 (= tanh(a·s/2) for c = 0; → sgn(s) as a → ∞).  The switching
+one-sided (0 … −f_max), which cannot be the smoothed sign function it is said to replace (in our convention
+F = f_max/(1 + e^(a·s + c)) = (symmetric F + f_max)/2: half the gain and a constant f_max/2 upward; run as
+``sigmoid: printed``, the variant ``fallah_printed_sigmoid``); reconstructed as the symmetric sigmoid 2/(1 + e^(−a·s − c)) − 1 (= tanh(a·s/2) for c = 0; → sgn(s) as a → ∞).  The switching
 function is normalised so that it reads in m/s: s = B1ᵀPx / |B1ᵀP·e2| (e2 = the ż_s direction), so ``a``
 (s/m) fixes the body velocity at which the force saturates (a = 4 s/m: 76 % of f_max at 0.5 m/s), and the
 small-signal gain a·f_max/2 is a skyhook-like damping (N·s/m).  With s oriented so that s ≈ ż_s + …, the
@@ -51,13 +52,15 @@ State estimation (Section 4), from the sensors only:
   (16Δ0 + Δ1 − 10Δ2 − 10Δ3 − 6Δ4 + 9Δ5)/(28Δt), Δi = Δ(t − iΔt), which is exact for quadratics
   (Σc_i = 0, Σ i·c_i = −28, Σ i²c_i = 0) — the one-sided smooth differentiator of Holoborodko;
 - c.g. heave velocity: the IMU's vertical acceleration integrated (trapezoidal), minus the mean of the
-  integrated velocity over the last ``mean_window`` seconds (the paper: "at each time instant the mean of
-  velocity over integration interval time is subtracted"; the window is our choice, 2 s);
+  integrated velocity since t = 0 (the paper: "at each time instant the mean of velocity over integration
+  interval time is subtracted", read literally: the default, ``mean_window`` null); ``mean_window`` = T
+  takes the mean over the last T seconds instead (ours; the variant ``fallah_window`` of the scenarios, 2 s);
 - corner body velocity, Eqs. (21)–(23): ż_s = ż_cg + (ω × r)_z with ω = (φ̇, θ̇, 0) from the gyros and
   r = (x_c, y_c, 0) the corner position: ż_s = ż_cg + y_c·φ̇ − x_c·θ̇ (roll positive = right side down,
   pitch positive = nose down; the printed r matrix is garbled, this is the geometry);
-- z_s: the corner velocity integrated, with the same moving-mean removal (``position_mean_removal``; the
-  paper only says "integration of (21)": without removal the double integral drifts).
+- z_s: the corner velocity integrated, "the state z_s is estimated from integration of (21)" (the default);
+  ``position_mean_removal`` also removes the same mean from it (ours, in ``fallah_window``: without removal
+  the double integral drifts, about −0.8 cm by the end of the bump run).
 
 Signals logged (``ctrl.<name>.<corner index>``): the estimates ``zs_hat``, ``vs_hat``, ``dv_hat``
 (Δ̇ estimate) and the switching function ``s``; the truth is in the run log (``body_z``, ``pitch``, ``roll``
@@ -68,7 +71,7 @@ inlines it and the base class runs it over the ensemble in the Python loop.
 """
 from __future__ import annotations
 
-from typing import Optional
+from typing import Literal, Optional
 
 import numba
 import numpy as np
@@ -96,8 +99,13 @@ class FallahParams(Params):
                                       description="m, m/s, m, m/s: state scaling for the SDP")
     lmi_margin: float = Field(1e-6, ge=0, description="strictness margin of the LMIs (on the scaled problem)")
     solver: Optional[str] = Field(None, description="cvxpy solver name (default: CLARABEL, else SCS)")
-    mean_window: float = Field(2.0, gt=0, description="s, moving window of the velocity mean removal")
-    position_mean_removal: bool = Field(True, description="remove the moving mean from the integrated z_s too")
+    mean_window: Optional[float] = Field(None, gt=0, description="s, moving window of the velocity mean removal; "
+                                         "null (the paper as printed) = the running mean since t = 0")
+    position_mean_removal: bool = Field(False, description="remove the same mean from the integrated z_s too "
+                                        "(ours; the paper integrates (21) plainly)")
+    sigmoid: Literal["symmetric", "printed"] = Field(
+        "symmetric", description="Eq. (18): 'symmetric' (our reconstruction, 2/(1 + e^(-(a*s + c))) - 1) or "
+        "'printed' (the paper's one-sided f = -f_max/(1 + e^(-a*B1'Px + c)): F from 0 to +f_max)")
     # sensor names
     acc_sensor: str = Field("body_acc", description="IMU accelerometer (first component: heave, m/s²)")
     gyro_sensor: Optional[str] = Field("gyro", description="IMU rate gyros (pitch/roll rates); null = none")
@@ -218,10 +226,11 @@ def corner_quarter_cars(ctx, p) -> dict[str, np.ndarray]:
 
 
 # the law ---------------------------------------------------------------------------------------------------
-(_P_DT, _P_NW, _P_PMR, _P_A, _P_C, _P_FMAX, _P_OACC, _P_OPITCH, _P_OROLL, _P_OTRAV) = range(10)
-_NP = 10  # then per corner: K (4), corner x, corner y
+(_P_DT, _P_NW, _P_PMR, _P_A, _P_C, _P_FMAX, _P_OACC, _P_OPITCH, _P_OROLL, _P_OTRAV, _P_SIG) = range(11)
+_NP = 11  # then per corner: K (4), corner x, corner y
 (_S_K, _S_VINT, _S_APREV, _S_SUMV) = range(4)
 _NS = 4  # then blocks of n_corners: hist (6), z_int, sum_z, zs, vs, dv, s, F; then buf_v (nw), buf_z (nw·nc)
+# (nw = 0: the running mean since t = 0, no buffers)
 
 
 @numba.njit(cache=True)
@@ -265,10 +274,15 @@ def _kernel(t, y, p, st, u):
         st[_S_VINT] = st[_S_VINT] + 0.5 * (acc + st[_S_APREV]) * dt
     st[_S_APREV] = acc
     v_int = st[_S_VINT]
-    j = k % nw
-    cnt = min(k + 1, nw)
-    st[_S_SUMV] += v_int - st[o_bufv + j]
-    st[o_bufv + j] = v_int
+    if nw > 0:  # moving window of nw samples (ours)
+        j = k % nw
+        cnt = min(k + 1, nw)
+        st[_S_SUMV] += v_int - st[o_bufv + j]
+        st[o_bufv + j] = v_int
+    else:  # the running mean since t = 0 (the paper's "mean of velocity over integration interval time")
+        j = 0
+        cnt = k + 1
+        st[_S_SUMV] += v_int
     v_cg = v_int - st[_S_SUMV] / cnt
     pmr = p[_P_PMR] != 0.0
     fmax, a, cc = p[_P_FMAX], p[_P_A], p[_P_C]
@@ -281,8 +295,11 @@ def _kernel(t, y, p, st, u):
             st[o_zint + c] = z
         st[o_vs + c] = vs
         if pmr:
-            st[o_sumz + c] += z - st[o_bufz + j * nc + c]
-            st[o_bufz + j * nc + c] = z
+            if nw > 0:
+                st[o_sumz + c] += z - st[o_bufz + j * nc + c]
+                st[o_bufz + j * nc + c] = z
+            else:
+                st[o_sumz + c] += z
             zs = z - st[o_sumz + c] / cnt
         else:
             zs = z
@@ -291,8 +308,10 @@ def _kernel(t, y, p, st, u):
         st[o_s + c] = sw
         arg = a * sw + cc
         arg = min(max(arg, -500.0), 500.0)
-        sig = 2.0 / (1.0 + np.exp(-arg)) - 1.0
-        F = -fmax * sig
+        if p[_P_SIG] != 0.0:  # Eq. (18) as printed: f = -f_max/(1 + e^(-a*B1'Px + c)), F = -f, B1'Px ∝ -s
+            F = fmax / (1.0 + np.exp(arg))
+        else:
+            F = -fmax * (2.0 / (1.0 + np.exp(-arg)) - 1.0)
         st[o_F + c] = F
         u[c] = F
     st[_S_K] = k + 1
@@ -365,7 +384,14 @@ class Fallah(Controller):
 
     def reset(self):
         super().reset()
-        self.nw = max(1, int(round(self._scalar("mean_window") / self.ctx.control_dt)))
+        mw = np.asarray(self.p.mean_window, dtype=object).reshape(-1)
+        if all(m is None for m in mw):
+            self.nw = 0  # the running mean since t = 0
+        elif any(m is None for m in mw):
+            raise ScenarioError("mean_window must be the same for every car of an ensemble",
+                                field="controller.params.mean_window")
+        else:
+            self.nw = max(1, int(round(self._scalar("mean_window") / self.ctx.control_dt)))
 
     def _kernel_layout(self):
         """Offsets of the kernel's state blocks (after the _NS scalars); must match _kernel."""
@@ -380,6 +406,8 @@ class Fallah(Controller):
         P[:, _P_DT], P[:, _P_NW] = self.ctx.control_dt, self.nw
         P[:, _P_PMR] = col(p.position_mean_removal)  # may differ per car
         P[:, _P_A], P[:, _P_C], P[:, _P_FMAX] = col(p.a), col(p.c), col(p.f_max)
+        sig = np.asarray(p.sigmoid, dtype=object).reshape(-1)
+        P[:, _P_SIG] = np.broadcast_to(np.array([x == "printed" for x in sig], dtype=float), (n,))
         P[:, _P_OACC] = start(p.acc_sensor)  # its first component: heave
         labels = self.ctx.sensors.get(p.gyro_sensor, []) if p.gyro_sensor else []
         g0 = start(p.gyro_sensor) if p.gyro_sensor else 0

@@ -295,11 +295,14 @@ def test_toscano_bases_are_the_paper_pair():
 
 # Fallah ----------------------------------------------------------------------------------------------------
 
-def test_fallah_estimation_and_law_against_the_equations():
-    """Eight steps of the full car from random IMU and LVDT readings (a 3-step moving-mean window, so it
-    wraps): the differentiator (19), trapezoidal integration with moving-mean removal, the corner velocities
-    (21)-(23), s = K·x and the sigmoid; one car without the position mean removal."""
-    cases = [dict(mean_window=0.003), dict(mean_window=0.003, position_mean_removal=False, a=8.0, c=0.5)]
+@pytest.mark.parametrize("cases, nw", [
+    ([dict(mean_window=0.003, position_mean_removal=True), dict(mean_window=0.003, a=8.0, c=0.5)], 3),
+    ([dict(), dict(position_mean_removal=True, sigmoid="printed", a=8.0, c=0.5)], None)])
+def test_fallah_estimation_and_law_against_the_equations(cases, nw):
+    """Eight steps of the full car from random IMU and LVDT readings: the differentiator (19), trapezoidal
+    integration with the mean removal (a 3-step moving window, so it wraps; or, the default as printed, the running
+    mean since t = 0), the corner velocities (21)-(23), s = K·x and the sigmoid (our symmetric one, or Eq. (18)
+    as printed, one-sided); with and without the position mean removal (the default: without)."""
     sim = Simulation([_from_file("fallah_bump.yaml", 0.1, **c) for c in cases])
     ctrl = sim.controller
     dt = ctrl.ctx.control_dt
@@ -311,15 +314,19 @@ def test_fallah_estimation_and_law_against_the_equations():
     coefs = [16, 1, -10, -10, -6, 9]
     labels = ctrl.ctx.sensors["gyro"]
     cx, cy = ctrl.ctx.corner_x, ctrl.ctx.corner_y
-    nw = 3
+
+    def mean_to(x, k):  # the mean removed at step k
+        return np.mean(x[max(0, k - nw + 1):k + 1] if nw else x[:k + 1])
+
     for i, case in enumerate(cases):
         a, c0, fmax = case.get("a", 4.0), case.get("c", 0.0), 6000.0
-        pmr = case.get("position_mean_removal", True)
+        pmr = case.get("position_mean_removal", False)
+        printed = case.get("sigmoid") == "printed"
         acc = [y["body_acc"][i, 0] for y in steps]
         v_int = [0.0]
         for k in range(1, len(steps)):
             v_int.append(v_int[-1] + 0.5 * (acc[k] + acc[k - 1]) * dt)
-        v_cg = [v_int[k] - np.mean(v_int[max(0, k - nw + 1):k + 1]) for k in range(len(steps))]
+        v_cg = [v_int[k] - mean_to(v_int, k) for k in range(len(steps))]
         for c in range(ctrl.ctx.n_corners):
             tr = [y["travel"][i, c] for y in steps]
             vs = [v_cg[k] + cy[c] * y["gyro"][i, labels.index("roll")] - cx[c] * y["gyro"][i, labels.index("pitch")]
@@ -330,9 +337,12 @@ def test_fallah_estimation_and_law_against_the_equations():
             for k in range(len(steps)):
                 hist = [tr[max(k - j, 0)] for j in range(6)]  # at rest before the start
                 dv = sum(cj * h for cj, h in zip(coefs, hist)) / (28 * dt)
-                zs = z[k] - np.mean(z[max(0, k - nw + 1):k + 1]) if pmr else z[k]
+                zs = z[k] - mean_to(z, k) if pmr else z[k]
                 s = float(np.dot(ctrl.K[i, c], [zs, vs[k], tr[k], dv]))
-                F = -fmax * (2.0 / (1.0 + math.exp(-(a * s + c0))) - 1.0)
+                if printed:  # f = -f_max/(1 + e^(-a·B1ᵀPx + c)) with B1ᵀPx ∝ -s, and F = -f
+                    F = fmax / (1.0 + math.exp(a * s + c0))
+                else:
+                    F = -fmax * (2.0 / (1.0 + math.exp(-(a * s + c0))) - 1.0)
                 _close(got[k][i, c], F, rel=1e-9)
             _close(sig["dv_hat"][i, c], dv, rel=1e-9)
             _close(sig["vs_hat"][i, c], vs[-1])
