@@ -11,7 +11,9 @@
   estimate equals what the paper's method must give — true corner velocity minus the running mean of the
   true c.g. velocity since t = 0 (the default, the paper as printed) or over the 2 s window (variant
   fallah_window, ours) — within 2 % (the mean removal itself is the method's error, stated in
-  docs/reproductions/fallah_sorniotti_gruber.md).
+  docs/reproductions/fallah_sorniotti_gruber.md);
+- Eq. (18) as printed (variant fallah_printed_sigmoid) is one-sided: it only pushes up and lifts the car before
+  the bump, which our symmetric reconstruction (the default) does not.
 """
 from __future__ import annotations
 
