@@ -87,19 +87,42 @@ def load_step(request):
         raw["sim"].update(FAST_STEP)
 
     return run_variants(request.config.rootpath, "thesis_ch4_load_step", edit,
-                        variants=("passive", "mrac_off", "mrac_bias", "wrong_design", "wrong_design_off"))
+                        variants=("passive", "mrac_off", "mrac_bias", "wrong_design_bias", "wrong_design_bias_off"))
 
 
 @pytest.fixture(scope="module")
 def printed(request):
     """The printed law (no bias) at the scenario's own step (RK4 at 0.0625 ms): at FAST_STEP it sat on the stops
     for 4–12 s after the load (−13 cm, 8–16 s), at its converged step it is back to −5 cm within 8 s (cf. the
-    page's 2-s means); the load held for 20 s as in the thesis (4–24 s), 9 CPU-s for the three runs."""
+    page's 2-s means); the load held for 20 s as in the thesis (4–24 s), 9 CPU-s for the first three runs; the
+    printed law from the stated wrong design and its adaptation-off baseline besides."""
     def edit(raw):
         raw["vehicle"]["variations"][0]["times"] = [4.0, 24.0]
         raw["sim"]["duration"] = 24.0
 
-    return run_variants(request.config.rootpath, "thesis_ch4_load_step", edit, variants=("passive", "mrac", "mrac_off"))
+    return run_variants(request.config.rootpath, "thesis_ch4_load_step", edit,
+                        variants=("passive", "mrac", "mrac_off", "wrong_design", "wrong_design_off"))
+
+
+def theta(ts):
+    return ts[[c for c in ts.columns if c.startswith("ctrl.theta.")]].to_numpy()
+
+
+def theta_gap(run, right, wrong):
+    """Scaled Θ distance (per row by the right start's initial |Θ|, bias row left out) over time (the item's)."""
+    r = theta(run[right])
+    sc = np.abs(r[0])
+    sc[sc == 0] = 1000.0
+    keep = np.ones(len(sc), bool)
+    keep[-2] = False
+    return np.linalg.norm(((theta(run[wrong]) - r) / sc)[:, keep], axis=1)
+
+
+def theta_held(ts):
+    """Largest relative change of a non-zero Θ entry over the run."""
+    th = theta(ts)
+    nz = np.abs(th[0]) > 0
+    return float(np.max(np.abs(th[:, nz] - th[0, nz]) / np.abs(th[0, nz])))
 
 
 def test_passive_sags_onto_the_stops(load_step):
@@ -115,7 +138,7 @@ def test_passive_sags_onto_the_stops(load_step):
 def test_printed_law_carries_the_load_but_does_not_hold_the_level(printed):
     """The printed law (κ = 1, Q = 0, the printed φ without a constant: the scenario default) supplies the static
     force (thesis ≈ 1500 N) through Θᵀφ's output and input terms, which the non-adaptive baseline does not (measured
-    1450 N against 794 N, 14–24 s).  But the level is not held (thesis: it is): the body sticks where the 1000 N
+    1450 N, 14–24 s; the baseline 794 N with the former P0 = 1e-12, whose Θ still moved).  But the level is not held (thesis: it is): the body sticks where the 1000 N
     friction catches it, ≈ 4 cm low (measured −4.3 cm); it recovers more than half of the baseline's sag."""
     z = {k: np.mean(window(printed[k], 14, 24, "body_z")) for k in ("mrac", "mrac_off", "passive")}
     force = {k: np.mean(window(printed[k], 14, 24, "actuator_force")) for k in ("mrac", "mrac_off")}
@@ -161,29 +184,42 @@ def test_model_following_is_not_reproduced_friction_locks_the_body(load_step, pr
 
 
 def test_estimates_from_a_wrong_design_merge_with_the_right_start(load_step):
-    """Adaptation from a stated wrong design (M* +30 %, K* −30 %, C0 +30 %; the law with our bias): the estimates
-    forget the initial design and join those of the run started from the right design (`mrac_bias`; scaled Θ
-    distance, bias row left out), and the level then matches the right start's; with adaptation off the wrong design keeps
-    its distance (it grows, as the right start's estimates move) and sags (baseline fails both)."""
-    def theta(ts):
-        return ts[[c for c in ts.columns if c.startswith("ctrl.theta.")]].to_numpy()
-
-    right = theta(load_step["mrac_bias"])
-    sc = np.abs(right[0])
-    sc[sc == 0] = 1000.0
-    keep = np.ones(len(sc), bool)
-    keep[-2] = False
-
-    def gap(k):
-        return np.linalg.norm(((theta(load_step[k]) - right) / sc)[:, keep], axis=1)
-
-    g, g_off = gap("wrong_design"), gap("wrong_design_off")
+    """Adaptation from a stated wrong design (M* +30 %, K* −30 %, C0 +30 %) with our bias (`wrong_design_bias`): the
+    estimates forget the initial design and join those of the run started from the right design (`mrac_bias`; scaled
+    Θ distance, bias row left out), and the level then matches the right start's; with adaptation off
+    (`wrong_design_bias_off`, P0 = 1e-18: Θ held) the wrong design keeps its distance (it grows, as the right start's
+    estimates move) and sags (baseline fails both)."""
+    g, g_off = theta_gap(load_step, "mrac_bias", "wrong_design_bias"), theta_gap(load_step, "mrac_bias",
+                                                                                  "wrong_design_bias_off")
     assert g[0] > 0.3 and g_off[0] == pytest.approx(g[0])
     assert g[-1] < 0.25 * g[0]
     assert g_off[-1] > g[0]
-    z = {k: np.mean(window(load_step[k], 8, 16, "body_z")) for k in ("mrac_bias", "wrong_design", "wrong_design_off")}
-    assert abs(z["wrong_design"] - z["mrac_bias"]) < 0.01
-    assert abs(z["wrong_design_off"] - z["mrac_bias"]) > 0.03
+    z = {k: np.mean(window(load_step[k], 8, 16, "body_z"))
+         for k in ("mrac_bias", "wrong_design_bias", "wrong_design_bias_off")}
+    assert abs(z["wrong_design_bias"] - z["mrac_bias"]) < 0.01
+    assert abs(z["wrong_design_bias_off"] - z["mrac_bias"]) > 0.03
+
+
+def test_adaptation_off_holds_theta(load_step, printed):
+    """The baselines are truly non-adaptive: with P0 = 1e-18 no Θ entry moves by 0.1 % (with the former 1e-12 the
+    first entry of `mrac_off` moved 1.9 % over the 60 s run), while the adaptive runs move theirs by far more."""
+    for run, k in ((load_step, "mrac_off"), (load_step, "wrong_design_bias_off"), (printed, "mrac_off"),
+                   (printed, "wrong_design_off")):
+        assert theta_held(run[k]) < 1e-3, k
+    for run, k in ((load_step, "mrac_bias"), (printed, "mrac"), (printed, "wrong_design")):
+        assert theta_held(run[k]) > 0.1, k
+
+
+def test_printed_law_from_a_wrong_design_does_not_join_the_right_start(printed):
+    """The printed law (no constant in φ) from the same stated wrong design (`wrong_design`): its estimates do not
+    join the right start's (`mrac`): the scaled Θ gap does not close to half its initial value (the item's rule for
+    "partly"; measured, the gap grows), and the level it settles at under the load differs from the right start's by
+    more than the bias law's 1 cm.  Not reproduced (pinned, so that a fix shows up here)."""
+    g = theta_gap(printed, "mrac", "wrong_design")
+    assert g[0] > 0.3
+    assert g[-1] > 0.5 * g[0], (g[0], g[-1])
+    z = {k: np.mean(window(printed[k], 14, 24, "body_z")) for k in ("mrac", "wrong_design")}
+    assert abs(z["wrong_design"] - z["mrac"]) > 0.01, z
 
 
 def test_dirt_road_without_loop_delay_ours_follows_reference_printed_law_overattenuates(request):
@@ -285,7 +321,7 @@ def test_stiffness_drift_printed_law_holds_level_after_the_load_passive_sags(req
         # the non-adaptive baseline on the same drifts: the printed law with adaptation off (as `mrac_off`; a bias
         # parameter would stay at its initial 0)
         raw["variants"]["drift_mrac_off"] = {"vehicle": raw["variants"]["drift_passive"]["vehicle"],
-                                             "controller": {"params": {"p0": 1.0e-12}}}
+                                             "controller": {"params": {"p0": 1.0e-18}}}
 
     names = ("drift_passive", "drift_mrac", "drift_mrac_bias", "drift_mrac_off")
     out = run_variants(request.config.rootpath, "thesis_ch4_load_step", edit, variants=names)
