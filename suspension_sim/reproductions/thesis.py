@@ -1727,6 +1727,13 @@ def ch5(ctx) -> ItemOutput:
            "soc_rattle": (psd["soc_r"], 1e-3), "mrac_power": (psd["mrac_p"], 10.0), "soc_power": (psd["soc_p"], 10.0)}
     key["sweep_all_hits"] = (float(hits["all"]), 1.0)
     key["thetad_psd_res"] = (psd["mrac_thetad"][1], 1e-4)
+    # the nominal rows' other numbers (issue 12 item 3: the page gives each one's change on halving): every band of
+    # the PSDs the ratio rows divide, the rattle spaces and the θ_d variant's work
+    for k_ in ("mrac", "mrac_thetad", "soc"):
+        for i_, (lo_, hi_) in enumerate(bands):
+            key.setdefault(f"{k_}_psd_{lo_:g}_{hi_:g}Hz", (psd[k_][i_], 1e-4))
+        key[f"{k_}_rattle"] = (psd[k_ + "_r"], 1e-3)
+    key["thetad_power"] = (psd["mrac_thetad_p"], 10.0)
     key["varying_mrac_stop_time"] = (float(dvar["mrac"].time) if "mrac" in dvar else float("inf"), 0.1)
     # the varying run's claims (saturation fractions and levels; floors: 1 % of the time, 1 mm)
     for k_ in ("soc_fixed", "mrac"):
