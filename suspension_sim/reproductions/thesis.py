@@ -423,7 +423,7 @@ def ch3_dirt(ctx) -> ItemOutput:
 
 # perturbed runs of the chaotic variant mrac_kappa_q (ensemble mean and standard error): 256 per step, so that the
 # standard error of the force median's change on halving (≈ 1 %) can bound the 2 % rule (64 gave ≈ 2.3 %)
-CH4_REALISATIONS = 64
+CH4_REALISATIONS = 256
 CH4_CHUNK = 32  # realisations per ensemble run
 CH4_PRINTED_REALISATIONS = 4  # the same perturbations on the printed law (it is not chaotic: a check, not a mean)
 CH4_PERTURBATION = 1e-4  # realisation k: first sine amplitude × (1 + k·1e-4), i.e. +2e-6·k m
