@@ -222,6 +222,18 @@ def test_printed_law_from_a_wrong_design_does_not_join_the_right_start(printed):
     assert abs(z["wrong_design"] - z["mrac"]) > 0.01, z
 
 
+def _dirt_psd(ts0):
+    """The Ch. 4 dirt-road tests' PSD over 8 s on: of a logged column, or (no column) of the body acceleration
+    averaged over each log step (the difference of the logged body velocity), at the log rate of `ts0`."""
+    fs = 1.0 / (ts0.t[1] - ts0.t[0])
+
+    def psd(ts, col=None):
+        t = ts.t.to_numpy()
+        x = ts[col].to_numpy()[t > 8] if col else (np.diff(ts.body_vel.to_numpy()) * fs)[t[1:] > 8]
+        return welch(x, fs=fs, nperseg=4096)
+    return psd
+
+
 def test_dirt_road_without_loop_delay_ours_follows_reference_printed_law_overattenuates(request):
     """The Ch. 4 laws on the dirt road (exact stick-slip friction) without the 0.05 s loop delay.  Body-acceleration
     PSDs of the acceleration averaged over each 1 ms log step (from the logged velocity): ours (κ = 0.1, Q = 1e-4)
@@ -238,12 +250,7 @@ def test_dirt_road_without_loop_delay_ours_follows_reference_printed_law_overatt
 
     out = run_variants(request.config.rootpath, "thesis_ch4_dirt", edit,
                        variants=("passive", "mrac_no_delay", "mrac_bias_no_delay", "mrac_kappa_q_no_delay"))
-    fs = 1.0 / (out["passive"].t[1] - out["passive"].t[0])
-
-    def psd(ts, col=None):
-        t = ts.t.to_numpy()
-        x = ts[col].to_numpy()[t > 8] if col else (np.diff(ts.body_vel.to_numpy()) * fs)[t[1:] > 8]
-        return welch(x, fs=fs, nperseg=4096)
+    psd = _dirt_psd(out["passive"])
 
     f, Pref = psd(out["mrac_no_delay"], "ctrl.ref_acc")
     _, Pp = psd(out["passive"])
@@ -281,12 +288,7 @@ def test_dirt_road_adaptation_moves_the_printed_law_away_from_the_reference(requ
 
     out = run_variants(request.config.rootpath, "thesis_ch4_dirt", edit,
                        variants=("passive", "mrac", "mrac_off", "mrac_no_delay", "mrac_off_no_delay"))
-    fs = 1.0 / (out["passive"].t[1] - out["passive"].t[0])
-
-    def psd(ts, col=None):
-        t = ts.t.to_numpy()
-        x = ts[col].to_numpy()[t > 8] if col else (np.diff(ts.body_vel.to_numpy()) * fs)[t[1:] > 8]
-        return welch(x, fs=fs, nperseg=4096)
+    psd = _dirt_psd(out["passive"])
 
     f, Pref = psd(out["mrac"], "ctrl.ref_acc")
 

@@ -521,6 +521,14 @@ def ch4_load_step(ctx) -> ItemOutput:
     travel_wp = dist(at(th_wp, 60.0), th_wp[0])
     off_gap_p = gap(th_offp, th_rp, 60.0)
 
+    def theta_story(gaps_, off_name, off_gap_, off_t, drift_, travel_):
+        """The wrong-start claims' Θ sentence (the printed law's and ours): distances to the right start's Θ."""
+        return ("Θ distance (scaled, bias row left out) to the right start's Θ at "
+                + ", ".join(f"{t_:g}" for t_ in gap_t) + " s: " + ", ".join(f"{g:.2f}" for g in gaps_)
+                + f" (adaptation off, `{off_name}`: {off_gap_:.2f} at {off_t:g} s); the right start's own Θ moves "
+                + ", ".join(f"{d_:.2f}" for d_ in drift_) + f" from the nominal design (the wrong start's "
+                f"{travel_:.2f} from its own)")
+
     def held(k):  # adaptation off: the largest relative change of a non-zero Θ entry over the run
         th_ = _ch4_theta(ts[k])
         nz = np.abs(th_[0]) > 0
@@ -632,11 +640,8 @@ def ch4_load_step(ctx) -> ItemOutput:
         Claim("adaptation from a stated wrong design (`wrong_design`: M* +30 %, K* −30 %, C0 +30 %, size ours), the "
               "printed law (right start `mrac`)",
               "estimates converge fast from their initial values (Fig. 4.6)",
-              "Θ distance (scaled, bias row left out) to the right start's Θ at "
-              + ", ".join(f"{t_:g}" for t_ in gap_t) + " s: " + ", ".join(f"{g:.2f}" for g in gaps_p)
-              + f" (adaptation off, `wrong_design_off`: {off_gap_p:.2f} at 60 s); the right start's own Θ moves "
-              + ", ".join(f"{d_:.2f}" for d_ in drift_rp) + f" from the nominal design (the wrong start's "
-              f"{travel_wp:.2f} from its own); level {z['wrong_design'] * 100:.1f} cm (right start "
+              theta_story(gaps_p, "wrong_design_off", off_gap_p, 60.0, drift_rp, travel_wp)
+              + f"; level {z['wrong_design'] * 100:.1f} cm (right start "
               f"{z['mrac'] * 100:.1f}, adaptation off {z['wrong_design_off'] * 100:.1f}), force "
               f"{F['wrong_design']:.0f} N ({F['mrac']:.0f}, {F['wrong_design_off']:.0f}), following "
               f"{fol['wrong_design'] * 1000:.1f} mm ({fol['mrac'] * 1000:.1f}, {fol['wrong_design_off'] * 1000:.1f})",
@@ -647,11 +652,8 @@ def ch4_load_step(ctx) -> ItemOutput:
               "does not identify Θ, so each start settles on its own Θ and its own level"),
         Claim("the same from the law with our bias (`wrong_design_bias`, ours; right start `mrac_bias`)",
               "estimates converge fast from their initial values (Fig. 4.6)",
-              "Θ distance (scaled, bias row left out) to the right start's Θ at "
-              + ", ".join(f"{t_:g}" for t_ in gap_t) + " s: " + ", ".join(f"{g:.2f}" for g in gaps)
-              + f" (adaptation off, `wrong_design_bias_off`: {off_gap:.2f} at 0 s); the right start's own Θ moves "
-              + ", ".join(f"{d_:.2f}" for d_ in drift_r) + f" from the nominal design (the wrong start's "
-              f"{travel_w:.2f} from its own); level {z['wrong_design_bias'] * 100:.1f} cm (right start "
+              theta_story(gaps, "wrong_design_bias_off", off_gap, 0.0, drift_r, travel_w)
+              + f"; level {z['wrong_design_bias'] * 100:.1f} cm (right start "
               f"{z['mrac_bias'] * 100:.1f}, adaptation off {z['wrong_design_bias_off'] * 100:.1f}), following "
               f"{fol['wrong_design_bias'] * 1000:.1f} mm ({fol['mrac_bias'] * 1000:.1f}, "
               f"{fol['wrong_design_bias_off'] * 1000:.1f})",
