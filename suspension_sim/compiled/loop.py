@@ -238,7 +238,9 @@ def generate_source(effects, actuator, controller, sensors=(), shape=None) -> st
             f"                for q in range(e{k}_sigj.shape[0]):\n"
             f"                    for jj in range(e{k}_lc.shape[1]):\n"
             f"                        Lr[e{k}_lc[q, jj]] = e{k}_st[i, jj, e{k}_sigj[q]]\n")
-    sensor_block = "".join(_sensor_code(sc, f, simple) for sc, (f, simple) in enumerate(sensors))
+    # the control stage of car i before its kernel: its sensors, then its command row zeroed
+    sensor_block = "".join(_sensor_code(sc, f, simple) for sc, (f, simple) in enumerate(sensors)) + \
+        "                for c in range(nc):\n                    cmd[i, c] = 0.0\n"
     acc_pass = _acc_code(" " * 20)
 
     def acc_flush(ind):  # the last step's acceleration, before the loop returns
@@ -250,8 +252,8 @@ def generate_source(effects, actuator, controller, sensors=(), shape=None) -> st
     if lanes:  # four cars that share the controller's parameter row in one call (compiled.lanes): their sensors
         # first, then the kernel lane by lane; each car's stages read only that car's data, so reading cars
         # i+1..i+3 before car i's forces changes no number
-        per_car = sensor_block + "                for c in range(nc):\n                    cmd[i, c] = 0.0\n" + ctrl_block
-        quad = re.sub(r"\bi\b", "i4", sensor_block + "                for c in range(nc):\n                    cmd[i, c] = 0.0\n")
+        per_car = sensor_block + ctrl_block
+        quad = re.sub(r"\bi\b", "i4", sensor_block)
         four = ", ".join(f"row({{a}}, i + {j})" for j in range(4))
         ctrl_head = (
             "                blk = lane_block(c_pi, i, n)\n"
@@ -377,7 +379,7 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
         need_acc = log_now or k == n_steps - 1 or ((k + 1) % sub == 0 and (ACC_READ or not full_control))
         for i in range(n):
             if ctrl_now:
-{sensor_block if lanes else sensor_block + "                for c in range(nc):" + chr(10) + "                    cmd[i, c] = 0.0" + chr(10)}{ctrl_block}            if trap:  # body-wheel damper coupling from the last step's velocity change (loop.trapezoidal_coupling)
+{sensor_block}{ctrl_block}            if trap:  # body-wheel damper coupling from the last step's velocity change (loop.trapezoidal_coupling)
                 for b in range(nb):
                     fb = 0.0
                     for c in range(nc):
