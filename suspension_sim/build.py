@@ -56,6 +56,21 @@ def structure_key(sc: Scenario) -> tuple:
     )
 
 
+
+def held_effects_note(effects) -> str:
+    """The part of ``auto``'s reason that says which effects hold their force at the step start over each physics
+    step (``step_force: start``, their default): that force is first order in the step whatever the integrator,
+    so "second order" holds for the linear suspension only (README, Accuracy).  Empty when there is none."""
+    held = []
+    for eff, _ in effects:
+        sf = getattr(eff.p, "step_force", None)
+        if sf is not None and any(v != "mean" for v in (sf if isinstance(sf, list) else [sf])):
+            held.append(eff.label)
+    if not held:
+        return ""
+    return (f"; {', '.join(held)} hold{'s' if len(held) == 1 else ''} the step-start force over each step "
+            "(first order in it; step_force: mean is second order)")
+
 class SpeedProfile:
     """Vehicle speed and distance over time (constant, or linear between [time, speed] points).
 
@@ -246,6 +261,8 @@ class System:
         # the two never write the same columns
         for (eff, _), label in zip(self.effects, effect_labels([eff.name for eff, _ in self.effects])):
             eff.label = label
+        if self.integrator == "trapezoidal" and self.integrator_reason:
+            self.integrator_reason += held_effects_note(self.effects)
         if any(lv is not None for lv in P.level):
             self.initial_q = self.rest_offset()
 

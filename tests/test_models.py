@@ -523,3 +523,24 @@ def test_default_integrator_is_trapezoidal_where_stable_else_implicitfast(tmp_pa
     assert "  integrator: implicitfast  # auto: trapezoidal not usable (model without tires)" in text, text
     from suspension_sim.config import load_scenario
     assert load_scenario(out / "scenario.resolved.yaml").sim.integrator == "implicitfast"
+
+
+def test_auto_reason_names_effects_that_hold_their_step_start_force():
+    """``auto``'s "second order" is the linear suspension's: an effect that holds its step-start force over each
+    step (``step_force: start``, the default) is first order in that force (tests/test_effects.py measures it),
+    and the reason says so by name; with ``step_force: mean`` (second order) or without such an effect it does
+    not."""
+    road = dict(type="sine", params=dict(amplitude=0.01, frequency=2.0))
+    reasons = {}
+    for sf in ("start", "mean"):
+        sc = scenario("quarter_car", road=road, duration=0.1, integrator="auto").model_dump()
+        sc["vehicle"]["effects"] = [dict(type="bump_stop", params=dict(step_force=sf)),
+                                    dict(type="quadratic_damping", params=dict(c_v=500.0))]
+        sim = Simulation([parse_scenario(sc)])
+        assert sim.integrator == "trapezoidal", sim.integrator_reason
+        reasons[sf] = sim.integrator_reason
+    assert "bump_stop, quadratic_damping hold the step-start force" in reasons["start"], reasons
+    assert "quadratic_damping holds the step-start force" in reasons["mean"], reasons
+    assert "bump_stop" not in reasons["mean"], reasons
+    plain = Simulation([scenario("quarter_car", road=road, duration=0.1, integrator="auto")]).integrator_reason
+    assert plain.startswith("auto: second order") and "hold" not in plain, plain
