@@ -1,6 +1,6 @@
 """A blind battery for `suspension-sim diagnose`: records from an independent quarter-car truth
 (benchmarks/blind_truth.py: its own ODE, force laws, vehicles, roads and sensors; nothing from
-suspension_sim), written as data files (CSV) with the nominal model a user would supply (MODEL.yaml),
+suspension_sim) and an independent half-car truth (benchmarks/blind_truth_half.py, the ``half_*`` records), written as data files (CSV) with the nominal model a user would supply (MODEL.yaml),
 diagnosed one at a time and scored: hidden set, named set, exact or not, false effects, fitted values against
 the truth, held-out error against the true noise floor.
 
@@ -22,6 +22,7 @@ import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import blind_truth as bt  # noqa: E402
+import blind_truth_half as bh  # noqa: E402
 
 warnings.filterwarnings("ignore")
 OUT3 = ["body_acc", "wheel_acc", "susp_travel"]
@@ -222,12 +223,105 @@ RECORDS = {
     "digressive_van_iso": dict(veh="van", road=("iso", dict(cls="D", speed=20)),
                                hidden={"digressive": dict(knee=(0.8, 1.2), ratio=(0.25, 0.4))}, noise=(0.02, "white"),
                                accept="one"),
+    # --- halfblind: half cars from an independent pitch-plane truth (benchmarks/blind_truth_half.py: heave and
+    # pitch, two wheels, the rear road the front road L/V later; its own equations, nothing from suspension_sim).
+    # ``car: half``; effects per axle (``axle``: front, rear or both); sensors: body accelerometers above the
+    # axles, travel front and rear, wheel accelerometers, a pitch-rate gyro (``outs``: a subset) ---
+    "half_null_sedan": dict(car="half", veh="hsedan", road=("iso", dict(cls="C", speed=20)), hidden={},
+                            noise=(0.02, "white"), bias={"body_acc_front": 0.2, "pitch_rate": -0.01}),
+    "half_stops_rear_suv": dict(car="half", veh="hsuv", road=("iso", dict(cls="D", speed=18)),
+                                hidden={"stops": dict(q=(0.975, 0.99), sides="both", axle="rear")},
+                                noise=(0.02, "white")),
+    "half_cubic_van": dict(car="half", veh="hvan", road=("iso", dict(cls="D", speed=15)),
+                           hidden={"cubic": dict(rel=(0.3, 0.5))}, noise=(0.02, "pink"),
+                           outs=["body_acc_front", "body_acc_rear", "susp_travel_front", "susp_travel_rear",
+                                 "pitch_rate"]),
+    "half_coulomb_front_sedan": dict(car="half", veh="hsedan", road=("iso", dict(cls="C", speed=18)),
+                                     hidden={"coulomb": dict(rel=(0.15, 0.3), axle="front")},
+                                     noise=(0.02, "white"), bias={"wheel_acc_rear": 0.3}),
+    # a loaded boot: a point load behind the rear axle makes the car heavier, moves its c.g. rearwards and adds
+    # pitch inertia; the travel sensors stay zeroed at the nominal ride height (the car sits nose up)
+    "half_load_suv": dict(car="half", veh="hsuv", road=("iso", dict(cls="C", speed=20)),
+                          hidden={"load": dict(f=(0.10, 0.15), behind_rear=0.35)}, noise=(0.02, "white")),
+    "half_two_coulomb_stops_van": dict(car="half", veh="hvan", road=("iso", dict(cls="D", speed=15)),
+                                       hidden={"coulomb": dict(rel=(0.15, 0.25), axle="front"),
+                                               "stops": dict(q=(0.975, 0.99), sides="comp", axle="rear")},
+                                       noise=(0.02, "white")),
 }
+
+
+def _half_name(key, p):
+    """The library's name of a hidden half-car effect: on one axle only, with its placement."""
+    ax = p.get("axle", "both")
+    return NAMES[key] + ("" if ax == "both" else f"@{ax}")
+
+
+def build_half(name: str, seed: int = 0):
+    """One half-car record (the same return as :func:`build`), from benchmarks/blind_truth_half.py."""
+    spec = RECORDS[name]
+    duration, fs = spec.get("duration", 8.0), spec.get("fs", 500.0)
+    rng = np.random.default_rng([seed, sum(map(ord, name))])
+    veh = dict(bh.HALF_VEHICLES[spec["veh"]])
+    rk, rkw = spec["road"]
+    road = _road(rng, rk, duration, **rkw)
+    speed = rkw["speed"]
+    lin = bh.simulate(veh, {}, road, speed, duration, fs)
+    s = {e: lin[f"susp_travel_{e}"] for e in bh.AXLES}
+    v = {e: np.gradient(s[e], 1 / fs) for e in bh.AXLES}
+    u = lambda lo_hi: float(rng.uniform(*lo_hi))  # noqa: E731
+    hidden, truth, expect = {}, {}, set()
+    for key, p in spec["hidden"].items():
+        ax = p.get("axle", "both")
+        axes = bh.AXLES if ax == "both" else (ax,)
+        if key == "coulomb":  # relative to the damper force at the axle(s) it acts on
+            F = u(p["rel"]) * float(np.mean([veh[f"damping_{e}"] * np.std(v[e]) for e in axes]))
+            hidden[key] = dict(force=F, v_eps=p.get("v_eps", 0.001), axle=ax)
+            truth["coulomb_friction.force"] = F
+        elif key == "stops":
+            qq = u(p["q"])
+            g_c = float(np.quantile(np.concatenate([-s[e] for e in axes]), qq))
+            g_e = float(np.quantile(np.concatenate([s[e] for e in axes]), qq)) if p["sides"] == "both" else None
+            ks = u((2.0, 5.0)) * float(np.mean([veh[f"spring_stiffness_{e}"] for e in axes]))
+            hidden[key] = dict(gap_c=g_c, gap_e=g_e, k=ks, c=0.0, axle=ax)
+            truth.update({"bump_stop.gap_compression": g_c, "bump_stop.stiffness": ks})
+            if g_e is not None:
+                truth["bump_stop.gap_extension"] = g_e
+        elif key == "cubic":  # one progressive spring design on the axle(s): the same k3
+            k3 = u(p["rel"]) * float(np.mean([veh[f"spring_stiffness_{e}"] / np.std(s[e]) ** 2 for e in axes])) / 3.0
+            hidden[key] = dict(k3=k3, axle=ax)
+            truth["cubic_stiffness.k3"] = k3
+        elif key == "load":  # a point load behind the rear axle (the boot): mass, c.g. and pitch inertia change
+            m = u(p["f"]) * veh["sprung_mass"]
+            hidden[key] = dict(mass=m, x=-(veh["b"] + p["behind_rear"]))
+            T = bh.loaded(veh, m, hidden[key]["x"])
+            truth.update({k: T[k] for k in ("sprung_mass", "pitch_inertia", "a", "b")})
+            expect |= {f"parameter:{k}" for k in ("sprung_mass", "pitch_inertia", "a", "b")}
+            continue
+        expect.add(_half_name(key, p))
+    d = bh.simulate(veh, hidden, road, speed, duration, fs)
+    info = {k: d[k] for k in ("stop_share",) if k in d}
+    if "load" in hidden:  # where the loaded car settled (travel from the nominal ride height)
+        info["travel_static_mm"] = {e: 1e3 * x for e, x in d["travel_static"].items()}
+    outs = spec.get("outs", bh.OUTPUTS)
+    level, colour = spec["noise"]
+    n = len(d["time"])
+    meas = {ch: d[ch] + level * np.std(d[ch]) * bt.noise(rng, n, colour) for ch in outs}
+    for ch, b in (spec.get("bias") or {}).items():
+        meas[ch] = meas[ch] + b
+    params = dict(veh)
+    for e in bh.AXLES:
+        params[f"damping_{e}"] = {"value": veh[f"damping_{e}"], "free": True}
+    model = {"model": "half_car", "params": params, "position_zero": spec.get("zero", "nominal")}
+    data = {"time": d["time"], "road_front": d["road_front"], "road_rear": d["road_rear"], **meas}
+    clean = {c: d[c] for c in outs}
+    return data, clean, model, expect, truth, info, hidden
 
 
 def build(name: str, seed: int = 0, duration: float | None = None, fs: float | None = None):
     """One record: (clean+noisy data dict, model dict, hidden set, truth values)."""
     spec = RECORDS[name]
+    if spec.get("car") == "half":
+        return build_half(name, seed)
     duration = duration or spec.get("duration", 8.0)
     fs = fs or spec.get("fs", 1000.0)
     q_dec = int(spec.get("decimate", 1))
@@ -409,7 +503,7 @@ def fitted_values(rep) -> dict:
         for k, v in (e.get("parameters") or {}).items():
             P[f"{e['name'].split('@')[0]}.{k}" if not e["name"].startswith("actuator") else f"actuator.{k}"] = v
     fp = rep.get("calibration", {}).get("fitted") or {}
-    for k in ("sprung_mass", "damping"):
+    for k in ("sprung_mass", "damping", "pitch_inertia", "a", "b"):
         if k in fp:
             P[k] = fp[k]
     for k, v in fp.items():  # the effects' parameters by their model labels
@@ -473,7 +567,9 @@ def _fmt_vals(r):
     for k, offs in r.get("zero_mm", {}).items():
         out.append(f"{k} " + ", ".join(f"{c} {o:+.2f} mm" for c, o in offs.items()))
     if "travel_static_mm" in r["info"]:
-        out.append(f"(true sag {r['info']['travel_static_mm']:+.2f} mm)")
+        ts = r["info"]["travel_static_mm"]
+        out.append(f"(true sag {ts:+.2f} mm)" if not isinstance(ts, dict) else
+                   "(true static travel " + ", ".join(f"{e} {x:+.2f} mm" for e, x in ts.items()) + ")")
     return "; ".join(out)
 
 
