@@ -34,7 +34,7 @@ import numba
 import numpy as np
 import pandas as pd
 
-from ..compiled.numpy_order import pairwise_sum
+from ..compiled.numpy_order import leaf_sums, pairwise_plan, pairwise_sum, push_leaf
 
 
 @dataclass
@@ -113,6 +113,16 @@ class EnsembleView:
         if not a.flags.c_contiguous:  # rows contiguous: numpy then sums each car's row pairwise as for one car
             a = self.channels[name] = np.ascontiguousarray(a)
         return a
+
+    def held(self, name: str) -> np.ndarray:
+        """Channel ``name`` of every car, ``(n_cars, n_log)``, in the layout it is held in: C-contiguous rows, or
+        the transpose of a C-contiguous step-major ``(n_log, n_cars)`` array (the compiled loop's log, gathered
+        channel by channel without turning it round).  For reductions that take either layout (elementwise
+        numpy, ``np.count_nonzero``, :meth:`Reductions.rms_peak`); numpy sums along axis 1 need :meth:`col`."""
+        if name == "t":
+            return self.col(name)
+        a = self.channels[name]
+        return a if a.flags.c_contiguous or a.T.flags.c_contiguous else self.col(name)
 
     def has(self, name: str) -> bool:
         return name == "t" or name in self.channels
@@ -204,12 +214,14 @@ class Reductions:
     def rms_peak(self, key, x: np.ndarray) -> None:
         """Sum of squares and max |x| of ``x`` under ``key`` (read with :meth:`rms` and :meth:`peak`): the
         numbers of ``np.sum(x * x, axis=1)`` and ``np.max(np.abs(x), axis=1)``, in one compiled pass."""
-        x = rows_of(x)
         if x.shape[1] == 0:
             self.sum_value(f"{key}.ss", np.zeros(x.shape[0]))
             return
         ss, pk = np.empty(x.shape[0]), np.empty(x.shape[0])
-        sumsq_maxabs(x, ss, pk)
+        if is_steps(x):  # a step-major channel (EnsembleView.held): the cars side by side, the same sums
+            colsq_maxabs(x.T, ss, pk)
+        else:
+            sumsq_maxabs(rows_of(x), ss, pk)
         self.sum_value(f"{key}.ss", ss)
         self.max_value(f"{key}.pk", pk)
 
@@ -267,6 +279,9 @@ class _OneCar(EnsembleView):
         if a is None:
             a = self.channels[name] = np.ascontiguousarray(self.run.col(name), dtype=float)[None, :]
         return a
+
+    def held(self, name: str) -> np.ndarray:
+        return self.col(name)
 
     def has(self, name: str) -> bool:
         return name in self.channels or self.run.has(name)
@@ -327,7 +342,7 @@ class CornerRmsPeak(Accumulator):
     def update(self, chunk: EnsembleView) -> None:
         self.r.start(chunk)
         for s in chunk.suffixes:
-            self.r.rms_peak(s, chunk.col(f"{self.channel}{s}"))
+            self.r.rms_peak(s, chunk.held(f"{self.channel}{s}"))
 
     def more(self, s: str, rms: np.ndarray) -> dict:
         """Further keys of corner ``s`` from its RMS (none by default)."""
@@ -350,6 +365,12 @@ class CornerRmsPeak(Accumulator):
 def rows_of(x) -> np.ndarray:
     """``x`` as a C-contiguous float64 2-D array (a view when it is one)."""
     return np.ascontiguousarray(x, dtype=np.float64)
+
+
+def is_steps(x) -> bool:
+    """Whether ``x`` (n_cars, rows) is the transpose of a C-contiguous float64 step-major array (and not itself
+    C-contiguous): the kernels then run over its steps with the cars side by side (:func:`colsq_maxabs`)."""
+    return x.ndim == 2 and x.dtype == np.float64 and not x.flags.c_contiguous and x.T.flags.c_contiguous
 
 
 @numba.njit(cache=True, inline="always")
@@ -397,6 +418,37 @@ def sumsq_maxabs(x, ss, pk):  # pragma: no cover - compiled
             ab[j] = abs(v)
         ss[r] = pairwise_sum(tmp, 0, n)
         pk[r] = max_nonneg(ab, n) if ss[r] == ss[r] else np.nan
+
+
+@numba.njit(cache=True, nogil=True)
+def colsq_maxabs(x, ss, pk):  # pragma: no cover - compiled
+    """:func:`sumsq_maxabs` of every column of a step-major ``x`` (rows, cars): ss[c] = np.sum(x[:, c] ** 2) in
+    numpy's pairwise order (the same tree of additions per car, :func:`~suspension_sim.compiled.numpy_order.
+    pairwise_plan`, the cars side by side in each) and pk[c] = max |x[:, c]| (NaN when ss[c] is); at least
+    one row.  The same numbers as sumsq_maxabs of the transposed rows."""
+    n, m = x.shape
+    lo, ln, merges = pairwise_plan(n)
+    T = np.empty((128, m))
+    acc = np.empty((8, m))
+    res = np.empty(m)
+    stack = np.empty((64, m))
+    for c in range(m):
+        pk[c] = 0.0
+    top = 0
+    for li in range(lo.shape[0]):
+        r0 = lo[li]
+        for i in range(ln[li]):
+            for c in range(m):
+                v = x[r0 + i, c]
+                T[i, c] = v * v
+                a = abs(v)
+                pk[c] = a if a > pk[c] else pk[c]
+        leaf_sums(T, ln[li], acc, res)
+        top = push_leaf(stack, top, res, merges[li])
+    for c in range(m):
+        ss[c] = stack[0, c]
+        if ss[c] != ss[c]:
+            pk[c] = np.nan
 
 
 @numba.njit(cache=True, inline="always")

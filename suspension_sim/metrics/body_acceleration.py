@@ -12,7 +12,7 @@ class BodyAcc(Accumulator):
 
     def update(self, chunk) -> None:
         self.r.start(chunk)
-        self.r.rms_peak("a", chunk.col("body_acc"))
+        self.r.rms_peak("a", chunk.held("body_acc"))
 
     def result(self) -> dict:
         return {"body_acc_rms": self.r.rms("a"), "body_acc_peak": self.r.peak("a")}

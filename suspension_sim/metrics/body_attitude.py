@@ -19,10 +19,10 @@ class _Attitude(Accumulator):
     def update(self, chunk) -> None:
         d = self.dof
         self.r.start(chunk)
-        self.r.rms_peak("ang", chunk.col(d))
+        self.r.rms_peak("ang", chunk.held(d))
         if chunk.has(f"{d}_acc"):
             self.has_acc = True
-            self.r.rms_peak("acc", chunk.col(f"{d}_acc"))
+            self.r.rms_peak("acc", chunk.held(f"{d}_acc"))
 
     def result(self) -> dict:
         d = self.dof

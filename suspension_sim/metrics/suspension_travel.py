@@ -44,7 +44,7 @@ class SuspensionTravel(Accumulator):
     def update(self, chunk) -> None:
         self.r.start(chunk)
         for s in chunk.suffixes:
-            x = chunk.col(f"travel{s}")
+            x = chunk.held(f"travel{s}")
             self.r.rms_peak(s, x)
             if s in self.sides:
                 lo, hi = self.sides[s]

@@ -25,7 +25,7 @@ class TireLiftoff(Accumulator):
         self.r.start(chunk)
         for s in chunk.suffixes:
             static = np.asarray(self.meta.static_tire_force[s], dtype=float)[:, None]
-            total = static + chunk.col(f"tire_force{s}")
+            total = static + chunk.held(f"tire_force{s}")
             self.r.count(f"off{s}", total <= LIFTOFF_TOL * np.maximum(np.abs(static), 1.0))
 
     def result(self) -> dict:
