@@ -37,37 +37,19 @@ def pairwise_block(a, lo, n):
 def pairwise_sum(a, lo, n):
     """numpy's pairwise summation of a[lo:lo+n] (np.sum along a contiguous axis): blocks of <= 128 summed
     by pairwise_block, longer runs split in halves (multiples of 8) as numpy does; numpy's recursion is
-    unrolled on an explicit stack (a recursive function does not survive numba's cache)."""
+    written out by :func:`pairwise_plan` (a recursive function does not survive numba's cache)."""
     if n <= 128:
         return pairwise_block(a, lo, n)
-    s_lo = np.empty(64, np.int64)
-    s_n = np.empty(64, np.int64)
-    s_stage = np.empty(64, np.int64)
-    s_acc = np.empty(64)
-    depth = 0
-    s_lo[0], s_n[0], s_stage[0] = lo, n, 0
-    while True:
-        if s_n[depth] <= 128:
-            res = pairwise_block(a, s_lo[depth], s_n[depth])
-            depth -= 1
-            while depth >= 0:
-                if s_stage[depth] == 0:  # left half done: keep it, go right
-                    s_acc[depth] = res
-                    s_stage[depth] = 1
-                    n2 = s_n[depth] // 2
-                    n2 -= n2 % 8
-                    depth += 1
-                    s_lo[depth], s_n[depth], s_stage[depth] = s_lo[depth - 1] + n2, s_n[depth - 1] - n2, 0
-                    break
-                res = s_acc[depth] + res  # both halves done
-                depth -= 1
-            if depth < 0:
-                return res
-        else:
-            n2 = s_n[depth] // 2
-            n2 -= n2 % 8
-            depth += 1
-            s_lo[depth], s_n[depth], s_stage[depth] = s_lo[depth - 1], n2, 0
+    leaf_lo, leaf_n, merges = pairwise_plan(n)
+    stack = np.empty(64)
+    top = 0
+    for li in range(leaf_lo.shape[0]):
+        stack[top] = pairwise_block(a, lo + leaf_lo[li], leaf_n[li])
+        top += 1
+        for _ in range(merges[li]):
+            stack[top - 2] = stack[top - 2] + stack[top - 1]
+            top -= 1
+    return stack[0]
 
 
 @numba.njit(cache=True)
