@@ -220,6 +220,10 @@ RECORDS = {
                                   hidden={}, noise=(0.02, "white")),
     "stops_sedan_rare_bumps": dict(veh="sedan", road=("bumps", dict(speed=15, bg="A", h=(0.04, 0.06), gaps=(40.0, 60.0))),
                                    hidden={"stops": dict(q=(0.985, 0.995), sides="both")}, noise=(0.02, "white")),
+    # --- a sensor gain on another channel, effect and vehicle than cubic_sedan_scale_bias (the record the
+    # sensor-gain rule (h) was made on): the travel sensor reads 5 % high on a van with asymmetric damping ---
+    "asym_van_travel_scale": dict(veh="van", road=("iso", dict(cls="D", speed=18)), hidden={"asym": dict(ratio=(2.0, 3.0))},
+                                  noise=(0.02, "white"), scale={"susp_travel": 1.05}),
     "digressive_van_iso": dict(veh="van", road=("iso", dict(cls="D", speed=20)),
                                hidden={"digressive": dict(knee=(0.8, 1.2), ratio=(0.25, 0.4))}, noise=(0.02, "white"),
                                accept="one"),

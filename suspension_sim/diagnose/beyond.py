@@ -57,15 +57,18 @@ def _poly_terms(s, v):
             "s*|v|": s * np.abs(v)}
 
 
-def measured_in_model_frame(prob, outputs: dict, offsets) -> dict:
-    """The measured outputs less the fitted channel offsets (sensor bias, a position sensor zeroed elsewhere):
-    the travel the model's forces act on, not the sensor's reading."""
-    if offsets is None:
+def measured_in_model_frame(prob, outputs: dict, offsets, gains=None) -> dict:
+    """The measured outputs less the fitted channel offsets (sensor bias, a position sensor zeroed elsewhere) and
+    over the fitted channel gains (select.py rule (h)): the travel the model's forces act on, not the sensor's
+    reading."""
+    if offsets is None and gains is None:
         return outputs
     out = dict(outputs)
     for i, c in enumerate(prob.channels):
-        if c in out and offsets[i] != 0:
+        if c in out and offsets is not None and offsets[i] != 0:
             out[c] = out[c] - offsets[i]
+        if c in out and gains is not None and gains[i] != 1:
+            out[c] = out[c] / gains[i]
     return out
 
 
@@ -79,7 +82,7 @@ def residual_force(D, fitres):
     o = rec.outputs
     a, b = D.train
     P = fitres.P
-    o = measured_in_model_frame(prob, o, fitres.offsets)
+    o = measured_in_model_frame(prob, o, fitres.offsets, fitres.gains)
     if rec.kind == "quarter_car" and "body_acc" in o and "susp_travel" in o:
         s, acc, m = o["susp_travel"][a:b], o["body_acc"][a:b], P["sprung_mass"]
         sig = D.floors["body_acc"]["value"] * m

@@ -77,6 +77,12 @@ class Problem:
             m[:] = spec.offsets
         return m
 
+    def gain_mask(self, spec: ModelSpec) -> np.ndarray:
+        """Channels with a free gain under ``spec`` (``spec.gains``: every output channel, the measured inputs'
+        scale being the reference; select.py rule (h)).  None on a damper rig: its force channel's gain is the
+        scale of every parameter of the rig."""
+        return np.full(len(self.channels), bool(spec.gains) and self.kind != "damper")
+
     def set_offsets(self, spec: ModelSpec):
         """The problem's default offset mask (:meth:`mask`; used where no spec is given: reports, ``nrmse``)."""
         self.offset_mask = self.mask(spec)
@@ -199,16 +205,29 @@ class Problem:
         o = np.mean(self.Y[a:b] - sim[a:b], axis=0)
         return np.where(self.offset_mask if mask is None else mask, o, 0.0)
 
-    def nrmse(self, sim, a: int, b: int, offsets=None) -> dict[str, float]:
+    def fit_gains(self, sim, a: int, b: int, mask, gmask) -> tuple[np.ndarray, np.ndarray]:
+        """(gains, offsets): per channel, the gain (``gmask``) and offset (``mask``) that match the data on [a, b)
+        in least squares, in closed form (a line through the simulated against the measured samples; through
+        the origin without a free offset).  A channel without a free gain has gain 1 and :meth:`fit_offsets`'s
+        offset."""
+        a = max(a, self.skip)
+        S, Y = sim[a:b], self.Y[a:b]
+        ms, my = S.mean(axis=0), Y.mean(axis=0)
+        Sc, Yc = np.where(mask, S - ms, S), np.where(mask, Y - my, Y)
+        ss = np.sum(Sc * Sc, axis=0)
+        g = np.where(gmask & (ss > 0), np.sum(Sc * Yc, axis=0) / np.where(ss > 0, ss, 1.0), 1.0)
+        return g, np.where(mask, my - g * ms, 0.0)
+
+    def nrmse(self, sim, a: int, b: int, offsets=None, gains=None) -> dict[str, float]:
         a = max(a, self.skip)
         o = self.fit_offsets(sim, a, b) if offsets is None else offsets
-        e = sim[a:b] + o - self.Y[a:b]
+        e = (sim[a:b] if gains is None else sim[a:b] * gains) + o - self.Y[a:b]
         return {c: float(np.sqrt(np.mean(e[:, i] ** 2)) / self.scale[i]) for i, c in enumerate(self.channels)}
 
-    def rmse(self, sim, a: int, b: int, offsets=None) -> dict[str, float]:
+    def rmse(self, sim, a: int, b: int, offsets=None, gains=None) -> dict[str, float]:
         a = max(a, self.skip)
         o = self.fit_offsets(sim, a, b) if offsets is None else offsets
-        e = sim[a:b] + o - self.Y[a:b]
+        e = (sim[a:b] if gains is None else sim[a:b] * gains) + o - self.Y[a:b]
         return {c: float(np.sqrt(np.mean(e[:, i] ** 2))) for i, c in enumerate(self.channels)}
 
 
@@ -225,6 +244,8 @@ class FitResult:
     success: bool = True
     offsets: np.ndarray | None = None  # free channel offsets fitted on the training window
     n_offsets: int = 0  # how many channel offsets were free (each a parameter of the BIC / AIC)
+    gains: np.ndarray | None = None  # free channel gains fitted on the training window (None: every gain 1)
+    n_gains: int = 0  # how many channel gains were free (each a parameter of the BIC / AIC, like the offsets)
     corr: np.ndarray | None = None  # correlation matrix of the free parameters' estimates (spec.free order)
     # the whole-record simulation of this fit per Problem (:meth:`simulated`)
     _sims: dict = field(default_factory=dict, repr=False, compare=False)
@@ -241,6 +262,11 @@ class FitResult:
             hit = self._sims[id(prob)] = (prob, sim)  # (the problem kept: its id stays its own)
         return hit[1]
 
+    def apply(self, sim: np.ndarray) -> np.ndarray:
+        """A simulation as the sensors read it: times the fitted channel gains, plus the fitted offsets."""
+        g = 1.0 if self.gains is None else self.gains
+        return sim * g + (self.offsets if self.offsets is not None else 0.0)
+
     def correlation(self, a: str, b: str) -> float:
         """Correlation of two free parameters' estimates (Gauss–Newton covariance); nan when unknown."""
         names = [f.name for f in self.spec.free]
@@ -256,18 +282,29 @@ class FitResult:
         """n·log(cost) + k·log n, k = the free parameters and the free channel offsets (eliminated in closed
         form, but fitted all the same: a model with free position offsets pays log n for each, select.py
         rule (g))."""
-        return self.n * np.log(max(self.cost, 1e-300)) + (len(self.x) + self.n_offsets) * np.log(self.n)
+        k = len(self.x) + self.n_offsets + self.n_gains
+        return self.n * np.log(max(self.cost, 1e-300)) + k * np.log(self.n)
 
     def aic(self) -> float:
-        return self.n * np.log(max(self.cost, 1e-300)) + 2 * (len(self.x) + self.n_offsets)
+        return self.n * np.log(max(self.cost, 1e-300)) + 2 * (len(self.x) + self.n_offsets + self.n_gains)
 
 
 def _residual_fn(prob: Problem, spec: ModelSpec, a: int, b: int, xs):
     w = 1.0 / (prob.scale * np.sqrt((b - max(a, prob.skip)) * len(prob.channels)))
     a = max(a, prob.skip)
     mask = prob.mask(spec)
+    gmask = prob.gain_mask(spec)
+    if gmask.any():  # free gains (rule (h)): each channel's gain and offset eliminated in closed form
+        Y = prob.Y[a:b]
+        Yc = np.where(mask, Y - Y.mean(axis=0), Y)
 
     def resid_of(sim):
+        if gmask.any():
+            S = sim[a:b]
+            Sc = np.where(mask, S - S.mean(axis=0), S)
+            ss = np.sum(Sc * Sc, axis=0)
+            g = np.where(gmask & (ss > 0), np.sum(Sc * Yc, axis=0) / np.where(ss > 0, ss, 1.0), 1.0)
+            return ((g * Sc - Yc) * w).ravel()
         e = sim[a:b] - prob.Y[a:b]
         if mask.any():
             e = e - np.where(mask, e.mean(axis=0), 0.0)
@@ -307,12 +344,19 @@ def fit(prob: Problem, spec: ModelSpec, a: int, b: int, starts: list[np.ndarray]
         max_nfev: int = 60) -> FitResult:
     """Fit ``spec``'s free parameters on samples [a, b) (simulating from sample 0)."""
     mask = prob.mask(spec)
+    gmask = prob.gain_mask(spec)
+
+    def scaling(sim):  # the fitted channel gains (None when none is free) and offsets on the window
+        if not gmask.any():
+            return None, prob.fit_offsets(sim, a, b, mask)
+        return prob.fit_gains(sim, a, b, mask, gmask)
+
     if not spec.free:
         sim = prob.simulate(spec, spec.P, 0, b)
-        cost = float(np.mean(np.square(list(prob.nrmse(sim, a, b, offsets=prob.fit_offsets(sim, a, b, mask))
-                                            .values()))))
+        g, o = scaling(sim)
+        cost = float(np.mean(np.square(list(prob.nrmse(sim, a, b, offsets=o, gains=g).values()))))
         return FitResult(spec, np.zeros(0), dict(spec.P), cost, b - max(a, prob.skip),
-                         offsets=prob.fit_offsets(sim, a, b, mask), n_offsets=int(mask.sum()))
+                         offsets=o, n_offsets=int(mask.sum()), gains=g, n_gains=int(gmask.sum()))
     xs = np.array([max(f.scale, 1e-12) for f in spec.free])
     lo = np.array([f.lo for f in spec.free]) / xs
     hi = np.array([f.hi for f in spec.free]) / xs
@@ -359,8 +403,9 @@ def fit(prob: Problem, spec: ModelSpec, a: int, b: int, starts: list[np.ndarray]
     r = best.fun
     cost = float(2 * best.cost)  # = mean NRMSE² over channels (residuals are pre-normalised)
     P = spec.vector(x)
+    g, o = scaling(prob.simulate(spec, P, 0, b))
     out = FitResult(spec, x, P, cost / 1.0, n, nfev=best.nfev, success=best.success,
-                    offsets=prob.fit_offsets(prob.simulate(spec, P, 0, b), a, b, mask), n_offsets=int(mask.sum()))
+                    offsets=o, n_offsets=int(mask.sum()), gains=g, n_gains=int(gmask.sum()))
     # covariance: residuals r_i = e_i * w; sigma² per normalised residual
     J = best.jac * 1.0
     nres = r.size

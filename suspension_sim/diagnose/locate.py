@@ -60,13 +60,14 @@ def spectra(resid, inputs: dict, channels, floors, fs_hz: float) -> dict:
     return out
 
 
-def force_map(prob, P: dict, floors: dict, a: int, b: int, nbins: int = 12, effects=(), offsets=None) -> dict | None:
+def force_map(prob, P: dict, floors: dict, a: int, b: int, nbins: int = 12, effects=(), offsets=None,
+              gains=None) -> dict | None:
     """Residual suspension force over travel × travel rate on samples [a, b) (None when it cannot be formed);
-    ``offsets``: the fit's channel offsets, taken off the measured channels."""
+    ``offsets``, ``gains``: the fit's channel offsets and gains, taken off the measured channels."""
     from .beyond import measured_in_model_frame
 
     rec = prob.rec
-    o, dt = measured_in_model_frame(prob, rec.outputs, offsets), rec.dt
+    o, dt = measured_in_model_frame(prob, rec.outputs, offsets, gains), rec.dt
     kind = rec.kind
     if kind not in ("quarter_car", "sdof", "damper"):
         return None  # a corner's force does not follow from its body acceleration alone (pitch/roll couple them)

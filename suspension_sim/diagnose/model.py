@@ -84,12 +84,15 @@ class ModelSpec:
     bounds_factor: float = 3.0
     lag: bool = False  # the actuator lag is part of the model
     level: dict = field(default_factory=dict)  # masses the car was levelled with, when not its own (levelled_with)
+    # a free gain on every output channel (sensor calibration factors, relative to the measured inputs' scale;
+    # eliminated in closed form per channel like the offsets): select.py rule (h), the sensor-gain rival
+    gains: bool = False
 
     def copy(self) -> "ModelSpec":
         return ModelSpec(self.kind, dict(self.P), [copy.copy(f) for f in self.free],
                          [copy.deepcopy(e) for e in self.effects], list(self.fixed_nominal), self.source,
                          copy.deepcopy(self.raw), self.position_zero, self.offsets, self.bounds_factor, self.lag,
-                         dict(self.level))
+                         dict(self.level), self.gains)
 
     def vector(self, x) -> dict:
         P = dict(self.P)

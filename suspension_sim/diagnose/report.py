@@ -72,6 +72,8 @@ def vehicle_block(D: Diagnosis) -> dict:
         out["inputs"] = {"force_gain": float(P.get("input.gain", 1.0)), "force_offset": float(P.get("input.offset", 0.0))}
     if D.final.offsets is not None and np.any(D.final.offsets):
         out["channel_offsets"] = {c: float(o) for c, o, m in zip(D.prob.channels, D.final.offsets, D.prob.offset_mask) if m}
+    if D.final.gains is not None:  # rule (h): the sensors read these multiples of what the model's channels are
+        out["channel_gains"] = {c: float(g) for c, g in zip(D.prob.channels, D.final.gains)}
     if spec.position_zero == "own":  # the positions from the car's own equilibrium: a replay states their offsets
         out["position_zero"] = "measured"
         out.setdefault("channel_offsets", {}).update((D.own_equilibrium or {}).get("offsets", {}))
@@ -256,10 +258,10 @@ def build_report(D: Diagnosis, out: Path, confirm: bool = True, plots: bool = Tr
     loc_s_after = locate.spectra(resid_fin[D.train[0]:D.train[1]], {}, D.prob.channels, D.floors, D.record.fs)
     fmap = locate.force_map(D.prob, D.nominal.P, D.floors, *D.train,
                             effects=[(e.label, e.type, e.corners, e.fixed) for e in D.nominal.spec.effects],
-                            offsets=D.nominal.offsets)
+                            offsets=D.nominal.offsets, gains=D.nominal.gains)
     fmap_after = locate.force_map(D.prob, D.final.P, D.floors, *D.train,
                                   effects=[(e.label, e.type, e.corners, e.fixed) for e in D.final.spec.effects],
-                                  offsets=D.final.offsets)
+                                  offsets=D.final.offsets, gains=D.final.gains)
     conf = mujoco_confirm(D, out) if confirm else {"status": "skipped", "reason": "--no-confirm"}
     report = {
         "effects": effects,
@@ -288,6 +290,7 @@ def build_report(D: Diagnosis, out: Path, confirm: bool = True, plots: bool = Tr
         "unexplained_x_floor": D.unexplained,
         "sensor_zero": D.sensor_zero,
         "own_equilibrium": D.own_equilibrium,
+        "sensor_gain": D.sensor_gain,
         "proposal": D.proposal,
         "not_separable": not_separable(D),
     }
@@ -337,6 +340,22 @@ def not_separable(D) -> list:
     return out
 
 
+def gain_sentence(g: dict) -> str:
+    """Rule (h)'s finding in words: the channels whose gain is off 1 by more than 2 standard errors and by more
+    than the channel's noise floor (NRMSE: a gain error smaller than that changes the channel by less than its
+    noise, gate (e)'s measure), as sensors reading high or low, relative to the measured inputs' scale (a gain
+    common to every output channel is the same as the road or force input reading off by its reciprocal)."""
+    fl = g.get("floor_nrmse", {})
+    off = [(c, v) for c, v in g["gains"].items() if abs(v - 1.0) > max(2.0 * g["std"][c], fl.get(c, 0.0))]
+    said = ", ".join(f"{c} reads {100 * abs(v - 1):.1f} % {'high' if v > 1 else 'low'} (gain {v:.4f} ± "
+                     f"{g['std'][c]:.4f})" for c, v in off) or "no channel's gain is off 1 beyond 2 standard errors"
+    why = ("explained the record better than " + ", ".join(b["candidate"] for b in g["beats"]) + " by training BIC"
+           if g["beats"] else f"lowered the held-out error beyond the noise where no effect did "
+                              f"({g['test_before']:.4g} → {g['test_after']:.4g})")
+    return (f"Sensor gains: {said}, relative to the measured inputs (a free gain on every output channel {why}; "
+            f"the gains are now fitted).")
+
+
 def verdict(D, effects, before, after) -> str:
     tail = (f" Unexplained: {D.unexplained:.1f}× the noise floor (the library cannot explain the rest)."
             if D.unexplained else "")
@@ -347,6 +366,8 @@ def verdict(D, effects, before, after) -> str:
                  + ", ".join(f"{c} reads {1e3 * o:+.2f} mm there" for c, o in z["offsets"].items())
                  + " (a free sensor offset explained the record better than "
                  + ", ".join(b["candidate"] for b in z["beats"]) + " by training BIC; the offsets are now fitted).")
+    if D.sensor_gain:  # rule (h) of the selection: a sensor finding, not a vehicle parameter
+        tail += " " + gain_sentence(D.sensor_gain)
     if D.own_equilibrium:  # rule (g)'s joint explanation: a sag-moving parameter beside free position offsets
         tail += (" The positions appear measured from the car's own equilibrium (offsets "
                  + ", ".join(f"{c} {1e3 * o:+.2f} mm" for c, o in D.own_equilibrium["offsets"].items())
@@ -359,6 +380,7 @@ def verdict(D, effects, before, after) -> str:
             return "No candidate effect lowers the held-out error beyond the noise: nothing is named." + tail
         return ("No candidate effect lowers the held-out error beyond the noise: nothing is named. "
                 "The calibrated nominal model" + (" (with the position sensors' zero fitted)" if D.sensor_zero else "")
+                + (" (with the sensors' gains fitted)" if D.sensor_gain else "")
                 + " is as good as any in the library on this record." + tail)
     names = ", ".join(e["name"] + (f" ({'; '.join(e['notes'].values())})" if e.get("notes") else "")
                       for e in effects)

@@ -32,6 +32,20 @@ models.
    static signature: blind battery two_heavier_cubic.)  Pairs and exchanges with a mass go through the same
    fit (an exchange's sag-moving newcomer also meets the rival: the model it joins, the effect taken out,
    with free position offsets).
+   (h) **the sensor-gain rule**: a kept candidate that frees a vehicle parameter (:class:`ParameterCandidate`) is
+   kept only when it beats the rival explanation, the current model with a free gain on every output channel
+   (the parameter at its stated value), by training BIC.  The gains are eliminated in closed form per channel
+   with the offsets (a line through simulated against measured, :meth:`.Problem.fit_gains`) and pay ``log n``
+   each, as the offsets do.  The measured inputs (road, force) are the reference: a gain common to every output
+   is identifiable against the stated vehicle, but it is the same as the road (or force) input reading off by
+   its reciprocal, and the report says the gains are relative to the inputs.  A wheel accelerometer reading 4 %
+   low was taken up by the tire stiffness (235 → 232.2 kN/m) and named beside the true cubic spring (blind
+   battery cubic_sedan_scale_bias).  When the rival has the lowest BIC and passes the gates it is adopted (the
+   gains stay free, no parameter is named, the search goes on) and the verdict reports each channel whose gain
+   is off 1 by more than 2 standard errors and its noise floor ("wheel_acc reads 3.9 % low").  When no candidate
+   is kept while the model is still above ``near`` × the floor, the gains are also tried alone (the remainder
+   of a gain error no parameter stands in for), by the same gates.  Not on a damper rig (its one force
+   channel's gain is the scale of all its parameters).
 4. The kept candidate with the lowest BIC is added, and the search repeats (up to ``max_effects``).
 5. **Beam over pairs**: when no single candidate is kept while the held-out error is still more than
    ``far`` (3) times the noise floor, the ``beam`` (4) candidates with the best training cost are tried
@@ -376,12 +390,12 @@ class Diagnosis:
     # the positions read from the car's own equilibrium: a sag-moving parameter named jointly with free position
     # offsets (rule (g), the joint explanation), with the offsets
     own_equilibrium: dict | None = None
+    sensor_gain: dict | None = None  # the output channels' gains, when the sensor-gain rule (h) adopted them
 
     def sims(self, fitres: FitResult):
         """(train/whole-record simulation, test simulation) of a fit, with its fitted channel offsets."""
-        o = fitres.offsets if fitres.offsets is not None else 0.0
-        s = fitres.simulated(self.prob) + o
-        st = fitres.simulated(self.test_prob) + o if self.test_prob is not None else s
+        s = fitres.apply(fitres.simulated(self.prob))
+        st = fitres.apply(fitres.simulated(self.test_prob)) if self.test_prob is not None else s
         return s, st
 
     def nrmse(self, fitres: FitResult) -> dict:
@@ -445,6 +459,7 @@ class Selector:
     # stand-in bump stop beside the true pair in both seeds; with the block test alone it names the pair)
     skip_at_floor = True  # a round after the first is not fitted at the floor (module docstring, "Speed")
     sensor_zero_rule = True  # rule (g) of the module docstring (off: the baseline of its test)
+    sensor_gain_rule = True  # rule (h) of the module docstring: the sensor-gain rival (off: the baseline of its test)
     joint_zero = True  # rule (g)'s joint explanation: a sag-moving candidate also fitted with its own zero
     joint_model = True  # ... and any candidate joining a model with a mass the search freed (_joint_applies)
     def __init__(self, rec: Record, spec: ModelSpec, split: float = 0.7, test_record: Record | None = None,
@@ -514,7 +529,7 @@ class Selector:
         if len(chans) < 2:
             return []
         a, b = self.train
-        sim = fr.simulated(self.prob)[a:b] + (fr.offsets if fr.offsets is not None else 0.0)
+        sim = fr.apply(fr.simulated(self.prob))[a:b]
         U = [u[a:b] for u in self.rec.inputs.values()]
         resid = sim - self.prob.Y[a:b]
         est = incoherent_noise(resid, np.column_stack(U) if U else None)
@@ -584,7 +599,7 @@ class Selector:
 
     def _test_errors(self, fr: FitResult):
         tp = self.test_prob or self.prob
-        sim = fr.simulated(tp) + (fr.offsets if fr.offsets is not None else 0.0)
+        sim = fr.apply(fr.simulated(tp))
         a, b = self.test
         a = max(a, tp.skip)
         return (sim[a:b] - tp.Y[a:b]) / tp.scale
@@ -745,13 +760,12 @@ class Selector:
 
         offs = self._offsets_of(fr)
         a = max(a, self.prob.skip)
-        sim = fr.simulated(self.prob)
-        o_fit = fr.offsets if fr.offsets is not None else np.zeros(len(self.prob.channels))
+        sim = fr.apply(fr.simulated(self.prob))
         w = 0.0
         chans = self._position_channels()
         for c in chans:
             i = self.prob.channels.index(c)
-            r = sim[a:b, i] + o_fit[i] - self.prob.Y[a:b, i]
+            r = sim[a:b, i] - self.prob.Y[a:b, i]
             se = float(np.std(r)) / np.sqrt(max(effective_n(r[:, None]), 1.0))
             if not se > 0:
                 return False
@@ -816,6 +830,74 @@ class Selector:
         finding = {"offsets": self._offsets_of(fr), "bic": float(bic_z),
                    "bic_before": float(cur_screen.bic()), "beats": beaten,
                    "test_before": float(trz.test_before), "test_after": float(trz.test_after), "z": float(trz.z)}
+        return out, (fs.spec, fs, fr, finding)
+
+    def gain_finding(self, fr: FitResult, a: int, b: int) -> dict:
+        """The output channels' fitted gains (rule (h)) with their standard errors: each gain is the slope of a
+        line through the simulated against the measured samples on [a, b), so its standard error is the
+        residual's std over √(N_eff·mean(s_c²)) (s_c: the simulation, centred when the channel's offset is
+        free; N_eff from the residual's autocorrelation, as for the offsets of :meth:`_offsets_zero`)."""
+        from .calibrate import effective_n
+
+        a = max(a, self.prob.skip)
+        raw = fr.simulated(self.prob)[a:b]
+        res = fr.apply(fr.simulated(self.prob))[a:b] - self.prob.Y[a:b]
+        mask = self.prob.mask(fr.spec)
+        out = {"gains": {}, "std": {}}
+        for i, c in enumerate(self.prob.channels):
+            s_c = raw[:, i] - (raw[:, i].mean() if mask[i] else 0.0)
+            ms = float(np.mean(s_c ** 2))
+            se = float(np.std(res[:, i])) / np.sqrt(max(effective_n(res[:, i:i + 1]), 1.0) * ms) if ms > 0 else np.inf
+            out["gains"][c] = float(fr.gains[i]) if fr.gains is not None else 1.0
+            out["std"][c] = se
+        return out
+
+    def _sensor_gain(self, kept: list, current_spec: ModelSpec, cur_screen: FitResult, e_cur, floor_n,
+                     a: int, bs: int, b: int, remainder: bool = False):
+        """Rule (h) (module docstring): a kept candidate that frees a vehicle parameter is held against the rival
+        explanation, the current model with a free gain on every output channel (the parameter at its stated
+        value; the gains eliminated in closed form, log n each in the BIC), by training BIC.  The rival is judged
+        by the usual gates.  ``remainder``: nothing was kept and the model is still above the floor; the gains
+        are tried alone, judged by the same gates.  Returns (the kept results it leaves, and (spec, screening fit,
+        fit, finding) of the rival when the gates keep it and no kept result has a lower BIC, else None)."""
+        if current_spec.gains or self.rec.kind == "damper":
+            return kept, None
+        freeing = [r for r in kept if any(isinstance(c, ParameterCandidate) for c in r[0])]
+        if not freeing and not remainder:
+            return kept, None
+        spec_g = _with_fit(current_spec, cur_screen)
+        spec_g.gains = True
+        fs = fit(self.prob, spec_g, a, bs, max_nfev=60)
+        bic_g = fs.bic()
+        trg = Trial("sensor gains", 0, True)
+        self._judge(trg, fs, cur_screen, e_cur, floor_n, [])
+        self.log(f"  rule (h): the sensors' gains (a free gain on {', '.join(self.prob.channels)}: "
+                 + ", ".join(f"{g:.4f}" for g in fs.gains) + f") ΔBIC {trg.d_bic:.1f}  test NRMSE "
+                 f"{trg.test_before:.4f} → {trg.test_after:.4f}  z {trg.z:.1f}  "
+                 f"{'passes the gate' if trg.kept else trg.reason or 'fails the gate'}")
+        out, beaten = [], []
+        for r in kept:
+            tr = r[2]
+            if any(r is m for m in freeing) and bic_g <= tr.bic:
+                tr.kept = False
+                tr.reason = (f"rejected: the sensors' gains explain it better (rule (h): a free gain on every "
+                             f"output channel, the parameter at its stated value, training BIC {bic_g:.1f} "
+                             f"against {tr.bic:.1f})")
+                beaten.append({"candidate": tr.name, "bic": float(tr.bic)})
+                self.log(f"  {tr.name}: {tr.reason[len('rejected: '):]}")
+            else:
+                if any(r is m for m in freeing):
+                    self.log(f"  {tr.name}: beats the sensors' gains (rule (h): training BIC {tr.bic:.1f} against "
+                             f"{bic_g:.1f})")
+                out.append(r)
+        if not trg.kept or not (beaten or remainder) or any(r[2].bic < bic_g for r in out):
+            return out, None
+        fr = fs
+        if bs < b:
+            fr = fit(self.prob, _with_fit(fs.spec, fs), a, b, max_nfev=30)
+        finding = {**self.gain_finding(fr, a, b), "bic": float(bic_g), "bic_before": float(cur_screen.bic()),
+                   "beats": beaten, "test_before": float(trg.test_before), "test_after": float(trg.test_after),
+                   "z": float(trg.z)}
         return out, (fs.spec, fs, fr, finding)
 
     def _polish(self, spec_c: ModelSpec, fr: FitResult, a: int, bs: int, b: int) -> tuple[FitResult, FitResult]:
@@ -908,7 +990,7 @@ class Selector:
     def _search(self, pool) -> Diagnosis:
         import time
 
-        sensor_zero = None
+        sensor_zero = sensor_gain = None
 
         T = {}
         t0 = time.perf_counter()
@@ -1056,6 +1138,7 @@ class Selector:
             for out_c in flat:
                 spec_r = _with_fit(self.spec, nominal)
                 spec_r.position_zero = current_spec.position_zero
+                spec_r.gains = current_spec.gains
                 for cand in flat:
                     if cand is not out_c:
                         spec_r, _st = cand.augment(spec_r, sc)
@@ -1198,6 +1281,16 @@ class Selector:
                     self.log("adopted free position-sensor offsets (rule (g)): " + ", ".join(
                         f"{c} {1e3 * o:+.2f} mm" for c, o in sensor_zero["offsets"].items()))
                     continue
+                gain = None
+                if self.sensor_gain_rule:
+                    kept, gain = self._sensor_gain(kept, current_spec, cur_screen, e_screen, floor_n, a, bs, b)
+                if gain is not None:
+                    # rule (h): the sensors' gains are adopted (no parameter named), and the search goes on
+                    spec_g, fs_g, fr_g, sensor_gain = gain
+                    current_spec, current, cur_screen, e_cur, e_screen, floor_n = adopt(spec_g, fr_g, fs_g)
+                    self.log("adopted free sensor gains (rule (h)): " + ", ".join(
+                        f"{c} {g:.4f} ± {sensor_gain['std'][c]:.4f}" for c, g in sensor_gain["gains"].items()))
+                    continue
                 chosen = None
                 for cands, spec_c, tr, fr in sorted(kept, key=lambda r: r[2].bic):
                     fs, fr = self._polish(spec_c, fr, a, bs, b)
@@ -1206,6 +1299,18 @@ class Selector:
                     chosen = (cands, spec_c, tr, fs, fr)
                     break
                 if chosen is None:
+                    if (self.sensor_gain_rule and not kept and not current_spec.gains
+                            and Ecur > self.near * fl):
+                        # rule (h) for the remainder: no effect or parameter is kept while the model is still
+                        # above the floor; the output channels' gains alone, by the same gates
+                        _, gain = self._sensor_gain([], current_spec, cur_screen, e_screen, floor_n, a, bs, b,
+                                                    remainder=True)
+                        if gain is not None:
+                            spec_g, fs_g, fr_g, sensor_gain = gain
+                            current_spec, current, cur_screen, e_cur, e_screen, floor_n = adopt(spec_g, fr_g, fs_g)
+                            self.log("adopted free sensor gains for the remainder (rule (h)): " + ", ".join(
+                                f"{c} {g:.4f} ± {sensor_gain['std'][c]:.4f}" for c, g in sensor_gain["gains"].items()))
+                            continue
                     break
                 cands, spec_c, tr, fs, fr = chosen
                 added.append((cands, fr, tr))
@@ -1243,6 +1348,7 @@ class Selector:
                 keep = [c for i, (c, _) in enumerate(flat) if i != drop]
                 spec_r = _with_fit(self.spec, nominal)
                 spec_r.position_zero = current_spec.position_zero
+                spec_r.gains = current_spec.gains
                 for cand in keep:
                     spec_r, _st = cand.augment(spec_r, sc)
                 for f in spec_r.free:
@@ -1279,6 +1385,9 @@ class Selector:
                 f"{c} {1e3 * o:+.2f} mm" for c, o in own["offsets"].items()) + ")")
         D = Diagnosis(self.rec, self.prob, self.test_prob, self.train, self.test, floors, nominal, current,
                       flat_added, trials, sc, T, sensor_zero=sensor_zero, own_equilibrium=own)
+        if sensor_gain is not None:  # the gains of the final model (the search went on after rule (h))
+            D.sensor_gain = {**sensor_gain, **self.gain_finding(current, a, b),
+                             "floor_nrmse": {c: float(floors[c]["nrmse"]) for c in self.prob.channels}}
         for c in self.recolour(floors, current):
             self.log(f"noise floor of {c} raised to {floors[c]['value']:.4g}: the final residual is coloured noise")
         floor_n = np.array([floors[c]["nrmse"] for c in self.prob.channels])
