@@ -44,8 +44,9 @@ models.
    gains stay free, no parameter is named, the search goes on) and the verdict reports each channel whose gain
    is off 1 by more than 2 standard errors and its noise floor ("wheel_acc reads 3.9 % low").  When no candidate
    is kept while the model is still above ``near`` × the floor, the gains are also tried alone (the remainder
-   of a gain error no parameter stands in for), by the same gates.  Not on a damper rig (its one force
-   channel's gain is the scale of all its parameters).
+   of a gain error no parameter stands in for), by the same gates.  Only where a road or base displacement is
+   measured (:meth:`Selector.gains_identifiable`): driven by a force alone (a shaker rig, a damper rig), scaling
+   every mass, stiffness and damping scales every output, and a gain is the scale of the free parameters.
 4. The kept candidate with the lowest BIC is added, and the search repeats (up to ``max_effects``).
 5. **Beam over pairs**: when no single candidate is kept while the held-out error is still more than
    ``far`` (3) times the noise floor, the ``beam`` (4) candidates with the best training cost are tried
@@ -852,6 +853,16 @@ class Selector:
             out["std"][c] = se
         return out
 
+    def gains_identifiable(self) -> bool:
+        """Whether free output gains can be told apart from the vehicle (rule (h)): a measured displacement input
+        (a road or a rig's base) excites the car.  Its response does not change when every mass, stiffness and
+        damping is scaled alike, so no parameter set reproduces a scaled output.  Driven by a force alone (a
+        rig's shaker), that scaling scales every output: a gain is then the scale of the free parameters, as
+        on a damper rig (its one force channel)."""
+        if self.rec.kind == "damper":
+            return False
+        return any((k.startswith("road") or k == "base") and np.any(v) for k, v in self.prob.inputs.items())
+
     def _sensor_gain(self, kept: list, current_spec: ModelSpec, cur_screen: FitResult, e_cur, floor_n,
                      a: int, bs: int, b: int, remainder: bool = False):
         """Rule (h) (module docstring): a kept candidate that frees a vehicle parameter is held against the rival
@@ -860,7 +871,7 @@ class Selector:
         by the usual gates.  ``remainder``: nothing was kept and the model is still above the floor; the gains
         are tried alone, judged by the same gates.  Returns (the kept results it leaves, and (spec, screening fit,
         fit, finding) of the rival when the gates keep it and no kept result has a lower BIC, else None)."""
-        if current_spec.gains or self.rec.kind == "damper":
+        if current_spec.gains or not self.gains_identifiable():
             return kept, None
         freeing = [r for r in kept if any(isinstance(c, ParameterCandidate) for c in r[0])]
         if not freeing and not remainder:
