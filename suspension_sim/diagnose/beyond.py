@@ -82,7 +82,7 @@ def residual_force(D, fitres):
     o = rec.outputs
     a, b = D.train
     P = fitres.P
-    o = measured_in_model_frame(prob, o, fitres.offsets, fitres.gains)
+    o = measured_in_model_frame(prob, o, fitres.offsets, getattr(fitres, "gains", None))
     if rec.kind == "quarter_car" and "body_acc" in o and "susp_travel" in o:
         s, acc, m = o["susp_travel"][a:b], o["body_acc"][a:b], P["sprung_mass"]
         sig = D.floors["body_acc"]["value"] * m
