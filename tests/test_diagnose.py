@@ -630,8 +630,10 @@ def test_the_own_zero_is_asked_again_when_an_effect_joins_a_freed_mass():
     missing, 219.9 kg against 277.9), and the cubic spring, tried in the exchange beside that plain mass, went
     from 0.1281 to 0.4929 held out; fitted with the own zero it went to 0.0203 (floor 0.0203) and the pair was
     named (277.9 kg, k3 1.396·10⁷ against 1.397·10⁷).  Not asked: a model without a freed mass, a mass the user
-    freed (the nominal calibration fits it in the stated convention), positions with free offsets; and with the
-    rule off (the baseline) the joining candidate is not asked either."""
+    freed (the nominal calibration fits it in the stated convention), positions with free offsets, a candidate
+    that leaves the rest positions as they are (friction, a damping law, a stop not engaged at rest: the joint
+    fit doubled the cost of every later trial of a record with a freed mass; fails on the rule asking every
+    joining candidate); and with the rule off (the baseline) the joining candidate is not asked either."""
     from suspension_sim.diagnose.candidates import library
     from suspension_sim.diagnose.model import load_model
     from suspension_sim.diagnose.select import Selector, _scales
@@ -650,11 +652,30 @@ def test_the_own_zero_is_asked_again_when_an_effect_joins_a_freed_mass():
     sel, spec0, sc, lib = setup(QC)
     mass, cubic = lib["parameter:sprung_mass"], lib["cubic_stiffness"]
     spec_m, _ = mass.augment(spec0, sc)
+    for f in spec_m.free:  # the mass as the search freed it: 20 % heavier, sagging 41 mm on its spring
+        if f.name == "sprung_mass":
+            f.init = spec_m.P["sprung_mass"] = 1.2 * spec0.P["sprung_mass"]
     spec_mc, _ = cubic.augment(spec_m, sc)
     spec_c, _ = cubic.augment(spec0, sc)
     assert sel._joint_applies([mass], spec0, spec_m)  # a candidate that frees the mass (as before)
     assert sel._joint_applies([cubic], spec_m, spec_mc)  # an effect joining the freed mass: asked again
     assert not sel._joint_applies([cubic], spec0, spec_c)  # no mass in the model: nothing to ask
+    # only a candidate that moves where the heavier car settles (the cubic spring carries part of its weight, a
+    # freed spring stiffness changes its sag, a stop engaged at rest carries it): friction, a damping law and the
+    # tire damping leave the rest positions as they are, and the two conventions as they were
+    for name, asked in (("parameter:spring_stiffness", True), ("coulomb_friction", False),
+                        ("quadratic_damping", False), ("parameter:tire_damping", False)):
+        spec_x, _ = lib[name].augment(spec_m, sc)
+        assert sel._joint_applies([lib[name]], spec_m, spec_x) is asked, name
+    stop = lib["bump_stop"]
+    spec_s, starts = stop.augment(spec_m, sc)
+    sag = -sel.prob.rest(spec_m, [spec_m.P])[0][sel.prob.channels.index("susp_travel")]
+    assert sag > 0.03
+    at = {**spec_s.vector(np.array(starts[0], float)), "bump_stop.gap_extension": 1.0, "bump_stop.stiffness": 5e4}
+    assert sel._joint_applies([stop], spec_m, spec_s, [{**at, "bump_stop.gap_compression": 0.5 * sag}])
+    assert not sel._joint_applies([stop], spec_m, spec_s, [{**at, "bump_stop.gap_compression": 2.0 * sag}])
+    sel.joint_settles = False  # the rule before the shortcut: every candidate joining the freed mass is asked
+    assert sel._joint_applies([lib["coulomb_friction"]], spec_m, lib["coulomb_friction"].augment(spec_m, sc)[0])
     sel.joint_model = False  # the baseline: only a candidate that frees the mass itself
     assert not sel._joint_applies([cubic], spec_m, spec_mc) and sel._joint_applies([mass], spec0, spec_m)
     # a mass the user stated free is the nominal model's, fitted in the stated convention

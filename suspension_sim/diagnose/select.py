@@ -470,6 +470,7 @@ class Selector:
     sensor_gain_rule = True  # rule (h) of the module docstring: the sensor-gain rival (off: the baseline of its test)
     joint_zero = True  # rule (g)'s joint explanation: a sag-moving candidate also fitted with its own zero
     joint_model = True  # ... and any candidate joining a model with a mass the search freed (_joint_applies)
+    joint_settles = True  # ... that moves where that model settles (_moves_rest; off: every joining candidate)
     def __init__(self, rec: Record, spec: ModelSpec, split: float = 0.7, test_record: Record | None = None,
                  floors: dict | None = None, candidates: list[str] | None = None, max_effects: int = 3,
                  screen_samples: int = 8000, min_excess_drop: float = 0.10, z_min: float = 2.0,
@@ -724,17 +725,23 @@ class Selector:
         sag = sag_params(self.rec.kind)
         return any(isinstance(c, ParameterCandidate) and c.pname in sag for c in cands)
 
-    def _joint_applies(self, cands, spec: ModelSpec, spec_c: ModelSpec | None = None) -> bool:
+    def _joint_applies(self, cands, spec: ModelSpec, spec_c: ModelSpec | None = None, points=None) -> bool:
         """Rule (g)'s joint explanation applies: the model's position sensors read zero at the nominal ride
         height, a position channel is measured, and the candidates move the sag, or the model they join
-        (``spec_c``, the candidates added) holds a sag-moving parameter an earlier step freed.  Such a
-        candidate is fitted twice: plainly (its sag shows in the positions) and with the positions read from the
-        car's own equilibrium (a heavier car re-levelled, or zeroed where it settled); the lower training BIC
-        is judged.  Where a heavier car settles depends on every force law of the model (a cubic spring or a
-        stop carries part of its weight), so the convention is the whole model's, asked again whenever a
-        candidate joins a model with a freed mass: a mass named plainly while the cubic spring was missing
-        (the own zero did not pay then) left a cubic spring, added later, no way to the truth's pair (blind
-        battery two_heavier_cubic_own: a 5 / 42 mm asymmetric stop stood in for it, 6.4× the floor)."""
+        (``spec_c``, the candidates added) holds a sag-moving parameter an earlier step freed and the candidates
+        move where that model settles (:meth:`_moves_rest` at ``points``, parameter sets of ``spec_c``: the
+        fit's starts and its plain optimum; default its initial values).  Such a candidate is fitted twice:
+        plainly (its sag shows in the positions) and with the positions read from the car's own equilibrium (a
+        heavier car re-levelled, or zeroed where it settled); the lower training BIC is judged.  Where a heavier
+        car settles depends on every force law of the model (a cubic spring or a stop carries part of its
+        weight), so the convention is the whole model's, asked again whenever a candidate changes where a model
+        with a freed mass settles: a mass named plainly while the cubic spring was missing (the own zero did not
+        pay then) left a cubic spring, added later, no way to the truth's pair (blind battery
+        two_heavier_cubic_own: a 5 / 42 mm asymmetric stop stood in for it, 6.4× the floor).  A candidate that
+        leaves the rest positions as they are, to the bit (a damping law, friction, a lag, a tire damping), is
+        not asked: the two conventions then differ by the same function of the model's own parameters as before
+        it joined (asking every joining candidate made every record with a freed mass fit most of its later
+        trials twice, for nothing on the nine mass records of the blind battery; docs/diagnose.md)."""
         if not (self.sensor_zero_rule and self.joint_zero and spec.position_zero == "nominal"
                 and self._position_channels()):
             return False
@@ -743,7 +750,34 @@ class Selector:
         if spec_c is None or not self.joint_model:
             return False
         sag, user = sag_params(self.rec.kind), {f.name for f in self.spec.free}
-        return any(f.name in sag and f.name not in user for f in spec_c.free)
+        if not any(f.name in sag and f.name not in user for f in spec_c.free):
+            return False
+        if not self.joint_settles:
+            return True
+        return self._moves_rest(spec, spec_c, [spec_c.vector(spec_c.x0)] if points is None else points)
+
+    def _moves_rest(self, spec: ModelSpec, spec_c: ModelSpec, points) -> bool:
+        """Whether the parameters ``spec_c`` frees beyond ``spec`` (the candidates') move where the model
+        settles: at any of ``points`` (parameter sets of ``spec_c``), the rest positions (:meth:`.Problem.rest`,
+        what the own zero subtracts) change when one of them is stepped as in the fit's Jacobian.  Compared to
+        the bit, as "never acts on this record" is: an effect whose force at rest is zero (friction, a damping
+        law, hysteresis, a lag) or a stop not engaged at rest leaves them exactly as they are; any change, even
+        one in the last bits, takes the joint fit (the safe side)."""
+        have = {f.name for f in spec.free}
+        new = [i for i, f in enumerate(spec_c.free) if f.name not in have]
+        if not new:
+            return False
+        Ps = []
+        for P in points:
+            x = np.array([float(P[f.name]) for f in spec_c.free])
+            Ps.append(spec_c.vector(x))
+            for i in new:
+                xi = x.copy()
+                xi[i] += 1e-4 * max(abs(x[i]), spec_c.free[i].scale)
+                Ps.append(spec_c.vector(xi))
+        r = self.prob.rest(spec_c, Ps)
+        k = len(new) + 1
+        return any(not np.array_equal(r[i], r[i + j]) for i in range(0, len(Ps), k) for j in range(1, k))
 
     def _offsets_of(self, fr: FitResult) -> dict:
         """The offsets of the position channels (SI units: what the sensors read at the nominal ride height):
@@ -1097,7 +1131,8 @@ class Selector:
                     # starts would fit the same nothing again (the full car's single-corner friction record:
                     # the rear axle's and the empty corner's placements, about a quarter of round 1's time)
                     break
-            if self._joint_applies(cands, current_spec, spec_c):
+            if self._joint_applies(cands, current_spec, spec_c,
+                                   [spec_c.vector(np.array(s0, float)) for s0 in starts] + [fr.P]):
                 # rule (g), the joint explanation: the same candidates with the positions read from the model's
                 # own equilibrium (the sag is not in the record: each set's rest positions are subtracted,
                 # Problem.rest); the lower training BIC of the two is judged (the same parameters: a choice of
