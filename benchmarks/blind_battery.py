@@ -28,8 +28,9 @@ warnings.filterwarnings("ignore")
 OUT3 = ["body_acc", "wheel_acc", "susp_travel"]
 NAMES = {"coulomb": "coulomb_friction", "stops": "bump_stop", "asym": "asymmetric_damping",
          "cubic": "cubic_stiffness", "lag": "actuator_lag", "liftoff": "tire_liftoff",
-         "mass": "parameter:sprung_mass", "quad": "quadratic_damping", "maxwell": "maxwell_damper"}
-BEYOND = {"dahl", "digressive"}  # truth laws outside the library: the right answer is nothing, or one stand-in
+         "mass": "parameter:sprung_mass", "quad": "quadratic_damping", "maxwell": "maxwell_damper",
+         "digressive": "digressive_damping"}
+BEYOND = {"dahl"}  # truth laws outside the library: the right answer is nothing, or one stand-in
 
 
 # ------------------------------------------------------------------------------------------------------
@@ -225,8 +226,13 @@ RECORDS = {
     "asym_van_travel_scale": dict(veh="van", road=("iso", dict(cls="D", speed=18)), hidden={"asym": dict(ratio=(2.0, 3.0))},
                                   noise=(0.02, "white"), scale={"susp_travel": 1.05}),
     "digressive_van_iso": dict(veh="van", road=("iso", dict(cls="D", speed=20)),
-                               hidden={"digressive": dict(knee=(0.8, 1.2), ratio=(0.25, 0.4))}, noise=(0.02, "white"),
-                               accept="one"),
+                               hidden={"digressive": dict(knee=(0.8, 1.2), ratio=(0.25, 0.4))}, noise=(0.02, "white")),
+    # --- digr: a digressive damper whose valves differ (bump knee lower and softer than rebound's), on bumps and
+    # potholes over a class-B road, another vehicle: a record the digressive_damping candidate was not shaped on ---
+    "digressive_suv_bumps": dict(veh="suv", road=("bumps", dict(speed=12, bg="B", h=(0.03, 0.06))),
+                                 hidden={"digressive": dict(knee=(0.6, 0.9), ratio=(0.2, 0.35),
+                                                            knee_reb=(1.0, 1.5), ratio_reb=(0.4, 0.6))},
+                                 noise=(0.02, "white"), bias=(0.2, -0.3)),
     # --- halfblind: half cars from an independent pitch-plane truth (benchmarks/blind_truth_half.py: heave and
     # pitch, two wheels, the rear road the front road L/V later; its own equations, nothing from suspension_sim).
     # ``car: half``; effects per axle (``axle``: front, rear or both); sensors: body accelerometers above the
@@ -395,9 +401,16 @@ def build(name: str, seed: int = 0, duration: float | None = None, fs: float | N
             hidden[key] = dict(k_b=kb)
             truth["maxwell.k_b"] = kb
             truth["maxwell_damper.compliance"] = 1.0 / kb
-        elif key == "digressive":  # a blow-off valve: the rate drops to ``ratio``·c above the knee (× std(v))
-            hidden[key] = dict(v_k=u(p["knee"]) * float(np.std(v)), ratio=u(p["ratio"]))
-            truth.update({"digressive.v_k": hidden[key]["v_k"], "digressive.ratio": hidden[key]["ratio"]})
+        elif key == "digressive":  # a blow-off valve: the rate drops to ``ratio``·c above the knee (× std(v));
+            # in rebound ``knee_reb`` / ``ratio_reb`` when given (drawn after the others: older records unchanged)
+            vr = float(np.std(v))
+            hidden[key] = dict(v_k=u(p["knee"]) * vr, ratio=u(p["ratio"]))
+            if "knee_reb" in p:
+                hidden[key].update(v_k_reb=u(p["knee_reb"]) * vr, ratio_reb=u(p["ratio_reb"]))
+            dg = hidden[key]
+            truth.update({"digressive_damping.v_knee_comp": dg["v_k"], "digressive_damping.ratio_comp": dg["ratio"],
+                          "digressive_damping.v_knee_reb": dg.get("v_k_reb", dg["v_k"]),
+                          "digressive_damping.ratio_reb": dg.get("ratio_reb", dg["ratio"])})
     if "liftoff" in hid_spec:  # scale the road until the wheel leaves it on the wanted share of samples
         want = u(hid_spec["liftoff"]["share"])
         Ft = lin["tire_force_total"]
@@ -513,6 +526,9 @@ def fitted_values(rep) -> dict:
     for k, v in fp.items():  # the effects' parameters by their model labels
         if "." in k and k not in P:
             P[k] = v
+    for side in ("comp", "reb"):  # a digressive damper's relief as its post-knee ratio r = 1 − drop
+        if f"digressive_damping.drop_{side}" in P:
+            P[f"digressive_damping.ratio_{side}"] = 1.0 - float(P[f"digressive_damping.drop_{side}"])
     if P.get("maxwell_damper.compliance"):  # the damper's mount stiffness
         P["maxwell.k_b"] = 1.0 / P["maxwell_damper.compliance"]
     c = P.get("damping")

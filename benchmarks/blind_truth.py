@@ -13,7 +13,8 @@ data-file format.  Integrated by scipy ``solve_ivp`` (DOP853, rtol 1e-9) with
   and a unilateral tyre (the total tyre force never pulls: lift-off); two laws *beyond* the diagnose library:
   a Dahl friction element (dF/dt = σ·v·(1 − F/F_c·sgn v): a hysteretic damper with a pre-sliding stiffness
   σ) and a Maxwell damper (the damper in series with a compliant top-mount bushing, dF/dt = k_b·(v − F/c):
-  damping that fades with frequency);
+  damping that fades with frequency; both were written beyond the library, the Maxwell damper has since joined
+  it), and a digressive damper (a blow-off valve: the rate drops above a knee rate, per side);
 - inputs: an ISO 8608 random road of a given class at a speed (a sum of sines in spatial frequency with
   the class's displacement PSD Gd(n0)·(n/n0)^-2), discrete bumps and potholes, kerb steps (level changes
   that stay), a swept-sine road (a four-post rig), a sine dwell, sums of these, and a measured actuator force
@@ -284,8 +285,9 @@ def simulate(vehicle: dict, hidden: dict, road, force, duration: float, fs: floa
     ``mass`` (true sprung mass, kg), ``asym`` {c_comp, c_reb} (total damping rates replacing ``damping``),
     ``cubic`` {k3} (N/m³ about the nominal ride height), ``stops`` {gap_c, gap_e (None = no stop), k, c},
     ``coulomb`` {force, v_eps (default 1 mm/s)}, ``lag`` {tau} (s), ``liftoff`` (bool),
-    ``quad`` {c_v} (N·s²/m²), ``digressive`` {v_k, ratio} (a damper with a blow-off valve: the rate ``damping`` up to
-    the knee rate v_k, ``ratio`` × it beyond, on both sides: outside the diagnose library), ``dahl`` {force, x_y} (a Dahl friction element of level F_c and pre-sliding
+    ``quad`` {c_v} (N·s²/m²), ``digressive`` {v_k, ratio, optional v_k_reb, ratio_reb} (a damper with a blow-off
+    valve: the rate ``damping`` up to the knee rate v_k, ``ratio`` × it beyond; in rebound the ``_reb`` values
+    when given, else the same), ``dahl`` {force, x_y} (a Dahl friction element of level F_c and pre-sliding
     displacement x_y = F_c/σ, beside the linear damper), ``maxwell`` {k_b} (the linear damper in series with a
     bushing of stiffness k_b).  ``times``: the instants actually sampled (default k/fs; jittered sampling)."""
     road_src, force_src = road, force
@@ -317,9 +319,10 @@ def simulate(vehicle: dict, hidden: dict, road, force, duration: float, fs: floa
             fd = z
         elif asym:
             fd = (asym["c_reb"] if v > 0 else asym["c_comp"]) * v
-        elif dig:
+        elif dig:  # each side its own knee and ratio (``v_k_reb``, ``ratio_reb``; default: the same as ``v_k``, ``ratio``)
             av = abs(v)
-            fd = math.copysign(c * av if av <= dig["v_k"] else c * dig["v_k"] + dig["ratio"] * c * (av - dig["v_k"]), v)
+            vk, r = (dig.get("v_k_reb", dig["v_k"]), dig.get("ratio_reb", dig["ratio"])) if v > 0 else (dig["v_k"], dig["ratio"])
+            fd = math.copysign(c * av if av <= vk else c * vk + r * c * (av - vk), v)
         else:
             fd = c * v
         F = F_s0 - k * s - fd - k3 * s ** 3 - cq * v * abs(v) + Fa

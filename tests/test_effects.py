@@ -33,7 +33,7 @@ from suspension_sim.simulation import Simulation
 G = 9.81
 MS, MU, KS, CS, KT = 290.0, 59.0, 16812.0, 1000.0, 190000.0  # quarter-car defaults (vehicles/quarter_car.py)
 EFFECT_NAMES = ["quadratic_damping", "asymmetric_damping", "coulomb_friction", "bump_stop", "cubic_stiffness",
-                "tire_liftoff", "maxwell_damper"]
+                "tire_liftoff", "maxwell_damper", "digressive_damping"]
 
 
 # ------------------------------------------------------------------------------------------------------

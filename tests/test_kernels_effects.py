@@ -327,6 +327,8 @@ ENSEMBLES = {
     "varying_stiffness": [{"amplitude": 2000.0, "frequency": 1.5}, {"offset": [100.0, -300.0]},
                           {"amplitude": 500.0, "frequency": 3.0, "phase": 1.0}],
     "maxwell_damper": [{"compliance": 5e-6}, {"compliance": [1e-6, 2e-5]}, {"compliance": 0.0}],
+    "digressive_damping": [{"v_knee_comp": 0.01, "drop_reb": 0.8}, {"v_knee_reb": [0.005, 0.02], "step_force": "mean"},
+                           {"drop_comp": 0.0, "drop_reb": 1.0, "v_knee_reb": 0.0}],
 }
 
 
