@@ -13,6 +13,7 @@ from ._common import PerCornerNonNeg, corner_array, step_mean_column
 from .base import Effect
 
 Share = Annotated[float, Field(ge=0, le=1)]
+KNEE_MIN = 0.1  # the smallest fitted knee, × the record's RMS travel rate (see free_parameters)
 PerCornerShare = Union[Share, list[Share]]
 
 
@@ -104,9 +105,13 @@ class DigressiveDamping(Effect):
     # or stated, as the model says): below the knees the record sees c alone, beyond them (1 − drop)·c, so the
     # three are identifiable when the rates cross the knees.  Each knee starts at the record's RMS travel rate
     # (a valve that opens within the rates the record holds), the relief at half the rate; a knee the fitted
-    # window never crosses goes to 10× the RMS rate (``unseen``: no valve opening on that side)
-    free_parameters = {"v_knee_comp": FreeParameter("v", init=1.0, lo=0.0, size=False, unseen=10.0),
-                       "v_knee_reb": FreeParameter("v", init=1.0, lo=0.0, size=False, unseen=10.0),
+    # window never crosses goes to 10× the RMS rate (``unseen``: no valve opening on that side).  A knee is kept
+    # at 0.1× the RMS rate or above (about 8 % of a Gaussian record's rates below it): at zero it is no knee, the
+    # damper is one linear rate per side, i.e. asymmetric_damping, which the library already holds with one
+    # parameter (with knees free down to 0 this candidate was asymmetric_damping with the step mean and took its
+    # place on the blind battery's asym_sedan_iso: knee 0 in compression, damping at the rebound rate)
+    free_parameters = {"v_knee_comp": FreeParameter("v", init=1.0, lo=KNEE_MIN, size=False, unseen=10.0),
+                       "v_knee_reb": FreeParameter("v", init=1.0, lo=KNEE_MIN, size=False, unseen=10.0),
                        "drop_comp": FreeParameter("1", init=0.5, lo=0.0, hi=1.0),
                        "drop_reb": FreeParameter("1", init=0.5, lo=0.0, hi=1.0)}
     # the law's mean over each step: the car's linear damper is trapezoidal (second order), the relief then is too
