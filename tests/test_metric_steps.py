@@ -89,3 +89,25 @@ def test_held_step_major_channel_same_reductions():
     r1.rms_peak("k", ens.held("x"))
     r2.rms_peak("k", np.ascontiguousarray(g.T))
     assert _same(r1.v["k.ss"], r2.v["k.ss"]) and _same(r1.v["k.pk"], r2.v["k.pk"])
+
+
+def test_counts_and_turning_round_equal_numpy():
+    """The stop and lift-off counts (one compiled pass, either layout) are numpy's counts; a step-major
+    channel turned round for EnsembleView.col is the array numpy's copy gives."""
+    from suspension_sim.metrics.base import _rows_of_steps
+    from suspension_sim.metrics.suspension_travel import _beyond
+    from suspension_sim.metrics.tire_liftoff import _off
+
+    rng = np.random.default_rng(9)
+    for n, m in ((1, 1), (70, 3), (2001, 65)):
+        x = _data(rng, n, m, special=n > 20)
+        lo, hi = rng.uniform(0, 1e3, m), rng.uniform(0, 1e3, m)
+        ref = np.count_nonzero((x.T < -lo[:, None]) | (x.T > hi[:, None]), axis=1).astype(float)
+        assert _same(_beyond(x, lo, hi), ref) and _same(_beyond(np.ascontiguousarray(x.T).T, lo, hi), ref)
+        static = rng.uniform(-100, 4000, m)
+        thr = 1e-9 * np.maximum(np.abs(static), 1.0)
+        ref = np.count_nonzero(static[:, None] + x.T <= thr[:, None], axis=1).astype(float)
+        assert _same(_off(x, static, thr), ref)
+        r = np.empty((m, n))
+        _rows_of_steps(x, r)
+        assert _same(r, np.ascontiguousarray(x.T))

@@ -111,7 +111,12 @@ class EnsembleView:
             return np.broadcast_to(self.t, (self.n_cars, len(self.t)))
         a = self.channels[name]
         if not a.flags.c_contiguous:  # rows contiguous: numpy then sums each car's row pairwise as for one car
-            a = self.channels[name] = np.ascontiguousarray(a)
+            if is_steps(a):  # a step-major channel (held): turned round in tiles, ~half numpy's time
+                r = np.empty(a.shape)
+                _rows_of_steps(a.T, r)
+                a = self.channels[name] = r
+            else:
+                a = self.channels[name] = np.ascontiguousarray(a)
         return a
 
     def held(self, name: str) -> np.ndarray:
@@ -418,6 +423,19 @@ def sumsq_maxabs(x, ss, pk):  # pragma: no cover - compiled
             ab[j] = abs(v)
         ss[r] = pairwise_sum(tmp, 0, n)
         pk[r] = max_nonneg(ab, n) if ss[r] == ss[r] else np.nan
+
+
+@numba.njit(cache=True, nogil=True)
+def _rows_of_steps(x, r):  # pragma: no cover - compiled
+    """r[c, j] = x[j, c]: a step-major (rows, cars) array as per-car rows, 64 × 64 tiles at a time."""
+    n, m = x.shape
+    for j0 in range(0, n, 64):
+        j1 = min(j0 + 64, n)
+        for c0 in range(0, m, 64):
+            c1 = min(c0 + 64, m)
+            for c in range(c0, c1):
+                for j in range(j0, j1):
+                    r[c, j] = x[j, c]
 
 
 @numba.njit(cache=True, nogil=True)

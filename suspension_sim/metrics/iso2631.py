@@ -268,12 +268,11 @@ def _upfir_sos_blocks(sos, seg, q0, q1, up, flip, hpp, pre, zi):  # pragma: no c
     for r0 in range(0, n_rows, B):
         nb = min(B, n_rows - r0)
         _state_in(zi, r0, nb, z0, z1)
-        for i in range(hpp):
-            for j in range(nb):
+        for j in range(nb):
+            for i in range(hpp):
                 ext[i, j] = seg[r0 + j, 0]
                 ext[hpp + n_in + i, j] = seg[r0 + j, n_in - 1]
-        for i in range(n_in):  # (i outer: a step-major segment, EnsembleView.held, is read in its order)
-            for j in range(nb):
+            for i in range(n_in):
                 ext[hpp + i, j] = seg[r0 + j, i]
         for q in range(q0, q1):
             p = q + pre  # upfirdn's output index: input sample p // up, phase p % up
@@ -446,7 +445,7 @@ class Iso2631(Accumulator):
                 return
             self.w = WeightedStream(self.n, 1.0 / chunk.dt, "Wk")
             self.stats = WeightedStats(self.n, 1.0 / chunk.dt)
-        self.stats.take(self.w.push(chunk.held("body_acc")))
+        self.stats.take(self.w.push(chunk.col("body_acc")))
 
     def result(self) -> dict:
         if self.w is None:

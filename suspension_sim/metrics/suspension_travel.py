@@ -1,4 +1,5 @@
 """RMS and peak suspension travel, and time on the bump stops, per corner."""
+import numba
 import numpy as np
 
 from ..registry import METRICS
@@ -48,7 +49,7 @@ class SuspensionTravel(Accumulator):
             self.r.rms_peak(s, x)
             if s in self.sides:
                 lo, hi = self.sides[s]
-                self.r.count(f"stop{s}", (x < -lo) | (x > hi))
+                self.r.sum_value(f"stop{s}", _beyond(x.T, lo[:, 0], hi[:, 0]))
 
     def result(self) -> dict:
         out = {}
@@ -60,3 +61,17 @@ class SuspensionTravel(Accumulator):
                 out[f"travel_stop_fraction{s}"] = f
                 out[f"travel_stop_time{s}"] = f * self.r.duration
         return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _beyond(x, lo, hi):  # pragma: no cover - compiled
+    """Per car c, the number of samples of ``x`` (samples, cars; any layout) with x < −lo[c] or x > hi[c]
+    (np.count_nonzero of ``(x < -lo) | (x > hi)``, as a float), in one pass."""
+    n, m = x.shape
+    out = np.zeros(m)
+    for j in range(n):
+        for c in range(m):
+            v = x[j, c]
+            if v < -lo[c] or v > hi[c]:
+                out[c] += 1.0
+    return out

@@ -1,4 +1,5 @@
 """Tire lift-off time per corner."""
+import numba
 import numpy as np
 
 from ..registry import METRICS
@@ -24,9 +25,9 @@ class TireLiftoff(Accumulator):
     def update(self, chunk) -> None:
         self.r.start(chunk)
         for s in chunk.suffixes:
-            static = np.asarray(self.meta.static_tire_force[s], dtype=float)[:, None]
-            total = static + chunk.held(f"tire_force{s}")
-            self.r.count(f"off{s}", total <= LIFTOFF_TOL * np.maximum(np.abs(static), 1.0))
+            static = np.ascontiguousarray(self.meta.static_tire_force[s], dtype=float)
+            x = chunk.held(f"tire_force{s}")
+            self.r.sum_value(f"off{s}", _off(x.T, static, LIFTOFF_TOL * np.maximum(np.abs(static), 1.0)))
 
     def result(self) -> dict:
         out = {}
@@ -35,3 +36,16 @@ class TireLiftoff(Accumulator):
             out[f"tire_liftoff_fraction{s}"] = f
             out[f"tire_liftoff_time{s}"] = f * self.r.duration
         return out
+
+
+@numba.njit(cache=True, nogil=True)
+def _off(x, static, thr):  # pragma: no cover - compiled
+    """Per car c, the number of samples of ``x`` (samples, cars; any layout) with static[c] + x <= thr[c] (the
+    total tire force at or below the lift-off threshold), as a float, in one pass."""
+    n, m = x.shape
+    out = np.zeros(m)
+    for j in range(n):
+        for c in range(m):
+            if static[c] + x[j, c] <= thr[c]:
+                out[c] += 1.0
+    return out
