@@ -103,8 +103,14 @@ def main():
         return all(list(p) == list(q) and all(np.asarray(p[k]).tobytes() == np.asarray(q[k]).tobytes() for k in p)
                    for p, q in zip(xs, ys))
 
-    m_old, m_new = metrics(old.load_module), metrics(new_load)
-    m_alt = metrics(lambda *x, **kw: Alternating(old.load_module(*x, **kw), new_load(*x, **kw)))
+    n_old = len(inspect.signature(old.load_module).parameters)
+
+    def old_load(*x, **kw):  # the base tree's loader may take fewer (trailing, optional) arguments
+        return old.load_module(*x[:n_old], **{k: v for k, v in kw.items()
+                                              if k in inspect.signature(old.load_module).parameters})
+
+    m_old, m_new = metrics(old_load), metrics(new_load)
+    m_alt = metrics(lambda *x, **kw: Alternating(old_load(*x, **kw), new_load(*x, **kw)))
     print(f"{a.cars} cars x 2 s, segments of {a.segment} steps; metrics old == new: {same(m_old, m_new)}, "
           f"interleaved == old: {same(m_old, m_alt)}; load average {os.getloadavg()[0]:.1f}", flush=True)
     if not (same(m_old, m_new) and same(m_old, m_alt)):

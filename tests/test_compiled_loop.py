@@ -396,3 +396,31 @@ def test_mujoco_profiling_timers_are_off():
         mujoco.mj_step(m, d)
     assert d.timer[int(mujoco.mjtTimer.mjTIMER_STEP)].duration == 0.0
     assert d.qpos[0] < 0  # it did step (falls under gravity)
+
+
+def test_loop_with_its_switches_as_constants_equals_the_generic_loop(monkeypatch):
+    """run_steps generates each loop with its switches (integrator, tires, road plates, effects, manoeuvre), the
+    log's column table and the sensors' layout written in as constants (generate_source's ``spec``, issue 15);
+    the loop generated without them, reading the same values from its arguments, gives the same bits: noisy,
+    delayed and quantised sensors (the ring buffer), every channel and metrics only, trapezoidal and RK4."""
+    from suspension_sim.compiled import loop as cl
+
+    load, specs = cl.load_module, []
+
+    def generic(*a):
+        specs.append(a[5])
+        return load(*a[:5])
+
+    for integrator, channels in (("trapezoidal", "all"), ("trapezoidal", "metrics"), ("RK4", "all")):
+        scs = _bench_like(2, sim={"duration": 0.3, "seed": 1, "integrator": integrator})
+        sim = Simulation(scs, log_channels=channels)
+        ref = sim.run()
+        assert sim.loop == "full", sim.loop_reason
+        monkeypatch.setattr(cl, "load_module", generic)
+        res = Simulation(scs, log_channels=channels).run()
+        monkeypatch.setattr(cl, "load_module", load)
+        flags, cols, sens = specs[-1]
+        assert dict(zip(cl.SPEC_FLAGS, flags))["rk4"] == (integrator == "RK4") and cols is not None and len(sens) == 3
+        for a, b in zip(ref, res):
+            assert (a.ts is None) == (b.ts is None) and (a.ts is None or a.ts.equals(b.ts))
+            assert a.metrics == b.metrics

@@ -40,7 +40,7 @@ import numpy as np
 from .. import buffers
 from ..numba_cache import compile_lock
 
-TEMPLATE_VERSION = 23
+TEMPLATE_VERSION = 24
 
 # PlantState fields a compiled sensor may read (Sensor.kernel_field), by code
 FIELDS = ("body_pos", "body_vel", "body_acc", "corner_body_pos", "corner_body_vel", "corner_body_acc",
@@ -174,25 +174,36 @@ def _field_defs(fields) -> str:
     return "".join(out)
 
 
-def _sensor_code(sc: int, field: int, simple: bool) -> str:
+def _sensor_code(sc: int, field: int, simple: bool, layout=None) -> str:
     """The compiled loop's lines for sensor ``sc`` (reading PlantState field code ``field``), for car i: a
     sensor without delay, hold, noise or quantisation is read straight into y (its value + bias, as the
-    Python pipeline computes it); else through the ring buffer of the pipeline."""
-    val = f"field_{field}(sens_cols[{sc}, q], sens_aux[{sc}], {_FIELD_ARGS})"
+    Python pipeline computes it); else through the ring buffer of the pipeline.  ``layout``: (columns read,
+    offset in y, auxiliary index) written into the lines as constants, or None: read from the arrays."""
+    if layout is None:
+        k, off, col, aux = f"sens_k[{sc}]", f"sens_off[{sc}]", f"sens_cols[{sc}, q]", f"sens_aux[{sc}]"
+    else:
+        cols, o, a = layout
+        k, off, aux = str(len(cols)), str(int(o)), str(int(a))
+        col = str(int(cols[0])) if len(cols) == 1 else f"{tuple(int(c) for c in cols)}[q]"
+    val = f"field_{field}({col}, {aux}, {_FIELD_ARGS})"
     ind = " " * 16
     if simple:
-        return (f"{ind}for q in range(sens_k[{sc}]):\n"
-                f"{ind}    y[i, sens_off[{sc}] + q] = {val} + sens_bias[{sc}]\n")
-    return (f"{ind}for q in range(sens_k[{sc}]):\n"
+        return (f"{ind}for q in range({k}):\n"
+                f"{ind}    y[i, {off} + q] = {val} + sens_bias[{sc}]\n")
+    return (f"{ind}for q in range({k}):\n"
             f"{ind}    ring[i, {sc}, sens_tmp[{sc}, 0], q] = {val}\n"
             f"{ind}if sens_tmp[{sc}, 2]:\n"
-            f"{ind}    for q in range(sens_k[{sc}]):\n"
+            f"{ind}    for q in range({k}):\n"
             f"{ind}        z = noise[i, sens_tmp[{sc}, 3] + q] if sens_std[{sc}] > 0 else 0.0\n"
-            f"{ind}        y[i, sens_off[{sc}] + q] = measure(ring[i, {sc}, sens_tmp[{sc}, 1], q], sens_bias[{sc}], z, "
+            f"{ind}        y[i, {off} + q] = measure(ring[i, {sc}, sens_tmp[{sc}, 1], q], sens_bias[{sc}], z, "
             f"sens_q[{sc}])\n")
 
 
-def generate_source(effects, actuator, controller, sensors=(), shape=None) -> str:
+# the loop's run-time switches that a specialised module (generate_source's ``spec``) has as constants
+SPEC_FLAGS = ("has_man", "road_dof", "rk4", "trap", "has_tire", "has_effects", "has_tire_effects")
+
+
+def generate_source(effects, actuator, controller, sensors=(), shape=None, spec=None) -> str:
     """Python source of the loop for ``effects`` [(module, name, target, reads the actuator force)], ``actuator`` ((module, force),
     (module, advance)) and ``controller`` ((module, name) or None for the hybrid loop; (module, name, True): its
     kernel runs for four cars per call where they share a parameter row, see :mod:`suspension_sim.compiled.lanes`).
@@ -201,7 +212,15 @@ def generate_source(effects, actuator, controller, sensors=(), shape=None) -> st
     Constant corner and body-dof counts let LLVM unroll the loops over them (a quarter car's are of length 1),
     and the actuator's kernels are inlined at numba's level (:func:`inlined`; LLVM left the actuator's force
     out of line in the loop's large function, a call with ~20 arguments through memory per car and step):
-    together ~6 % off the loop's time in the benchmark batch.  Neither changes an operation or its order."""
+    together ~6 % off the loop's time in the benchmark batch.  Neither changes an operation or its order.
+
+    ``spec`` (or None): (flags, log columns, sensor layouts) written into the loop as constants: ``flags`` the
+    values of :data:`SPEC_FLAGS` (the plant's, integrator's and manoeuvre's switches), ``log columns`` the
+    plant's log column table (``_Layout.LC``, as tuples; None: read from the argument) and ``sensor layouts``
+    one (columns, offset in y, auxiliary index) per sensor (None: read from the arrays).  The loop's branches
+    on them and their table loads go (LLVM folds them): ~3 % of the benchmark loop's time (issue 15, twelfth
+    session); no operation on a number changes.  The arguments are still passed (and ignored): the caller's
+    values must be the ones the module was generated for (``run_steps`` keys the module on them)."""
     imp = ["import numpy as np", "from numba import njit",
            "from suspension_sim.compiled.mj import mj_step1, mj_step2, mj_step, mj_forwardSkip",
            "from suspension_sim.compiled.loop import inlined",
@@ -219,6 +238,14 @@ def generate_source(effects, actuator, controller, sensors=(), shape=None) -> st
                   f"    nb = {int(shape[1])}\n"
                   "    if road_q.shape[1] != nc or body_q.shape[1] != nb:\n"
                   "        raise ValueError('compiled loop generated for another number of corners or body dofs')\n")
+    flags, lc_const, sens_layout = spec if spec is not None else (None, None, None)
+    if flags is not None:
+        shape_code += "".join(f"    {nm} = {bool(v)}  # the module is generated for this value\n"
+                              for nm, v in zip(SPEC_FLAGS, flags))
+    lc = "LC"
+    if lc_const is not None:  # a module-level array: a constant to numba (and its loads to LLVM)
+        imp.append(f"LCK = np.array({[list(map(int, r)) for r in lc_const]!r}, dtype=np.int64)")
+        lc = "LCK"
     lanes = controller is not None and len(controller) > 2 and bool(controller[2])
     if controller is not None:
         imp.append(f"from {controller[0]} import {controller[1]} as ctrl_kernel")
@@ -239,12 +266,13 @@ def generate_source(effects, actuator, controller, sensors=(), shape=None) -> st
             f"                    for jj in range(e{k}_lc.shape[1]):\n"
             f"                        Lr[e{k}_lc[q, jj]] = e{k}_st[i, jj, e{k}_sigj[q]]\n")
     # the control stage of car i before its kernel: its sensors, then its command row zeroed
-    sensor_block = "".join(_sensor_code(sc, f, simple) for sc, (f, simple) in enumerate(sensors)) + \
+    sensor_block = "".join(_sensor_code(sc, f, simple, None if sens_layout is None else sens_layout[sc])
+                           for sc, (f, simple) in enumerate(sensors)) + \
         "                for c in range(nc):\n                    cmd[i, c] = 0.0\n"
-    acc_pass = _acc_code(" " * 20)
+    acc_pass = _acc_code(" " * 20, lc)
 
     def acc_flush(ind):  # the last step's acceleration, before the loop returns
-        return (f"{ind}if acc_due:\n{ind}    for i in range(n):\n" + _acc_code(ind + " " * 8)
+        return (f"{ind}if acc_due:\n{ind}    for i in range(n):\n" + _acc_code(ind + " " * 8, lc)
                 + f"{ind}    acc_due = False\n")
 
     ctrl_block = ("                ctrl_kernel(t, row(y, i), row(c_p, c_pi[i]), row(c_st, i), row(cmd, i))\n" if controller is not None
@@ -518,10 +546,12 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
         k += 1
 {acc_flush(" " * 4)}{unblock(4)}    return k1
 '''
+    if lc != "LC":
+        body = re.sub(r"\bLC\[", lc + "[", body)
     return "\n".join(imp) + "\n" + body
 
 
-def _acc_code(ind: str) -> str:
+def _acc_code(ind: str, lc: str = "LC") -> str:
     """The loop's lines for car i's acceleration of the last step, (qvel - v_before) / dt on its body and wheel
     dofs, and its log entries in row acc_jl when that step logged (acc_log)."""
     return (f"{ind}for b in range(nb):\n"
@@ -532,12 +562,12 @@ def _acc_code(ind: str) -> str:
             f"{ind}if acc_log:\n"
             f"{ind}    Lr = row(row(L, acc_jl), i)\n"
             f"{ind}    for b in range(nb):\n"
-            f"{ind}        if LC[2, b] >= 0:\n"
-            f"{ind}            Lr[LC[2, b]] = acc[body_v[i, b]]\n"
+            f"{ind}        if {lc}[2, b] >= 0:\n"
+            f"{ind}            Lr[{lc}[2, b]] = acc[body_v[i, b]]\n"
             f"{ind}    if has_tire:\n"
             f"{ind}        for c in range(nc):\n"
-            f"{ind}            if LC[14, c] >= 0:\n"
-            f"{ind}                Lr[LC[14, c]] = acc[wheel_v[i, c]]\n")
+            f"{ind}            if {lc}[14, c] >= 0:\n"
+            f"{ind}                Lr[{lc}[14, c]] = acc[wheel_v[i, c]]\n")
 
 
 def inlined(kernel):
@@ -550,10 +580,11 @@ def inlined(kernel):
     return njit(inline="always", **opts)(kernel.py_func)
 
 
-def load_module(effects, actuator, controller, sensors=(), shape=None):
+def load_module(effects, actuator, controller, sensors=(), shape=None, spec=None):
     """The compiled loop module for this combination (generated, written and imported once per process; the
-    loop releases the GIL, so threads may run simulations side by side); ``shape`` as :func:`generate_source`."""
-    key = (tuple(effects), actuator, controller, tuple(sensors), shape)
+    loop releases the GIL, so threads may run simulations side by side); ``shape`` and ``spec`` as
+    :func:`generate_source`."""
+    key = (tuple(effects), actuator, controller, tuple(sensors), shape, spec)
     mod = _MODULES.get(key)
     if mod is not None:
         return mod
@@ -561,7 +592,7 @@ def load_module(effects, actuator, controller, sensors=(), shape=None):
         mod = _MODULES.get(key)
         if mod is not None:
             return mod
-        src = generate_source(effects, actuator, controller, sensors, shape)
+        src = generate_source(effects, actuator, controller, sensors, shape, spec)
         h = hashlib.sha256((_source_digest() + src).encode()).hexdigest()[:20]
         name = f"suspension_sim_loop_{h}"
         path = _cache_dir() / f"{name}.py"
@@ -857,7 +888,6 @@ def run_steps(sim, mode: str, progress=None, logger=None):
     sens_tmp = np.zeros((max(ns, 1), 4), np.int64)
     sensor_code = [(int(sens["field"][j]), bool(sens["delay"][j] == 0 and sens["hold"][j] == 1 and sens["std"][j] == 0
                                                 and sens["q"][j] == 0)) for j in range(ns)] if full else []
-    mod = load_module(effects, actuator, controller, sensor_code, (nc, len(P.body_joints)))
     from ..build import n_log_samples
 
     n_log = n_log_samples(sim.n_steps, sim.log_every)
@@ -901,7 +931,13 @@ def run_steps(sim, mode: str, progress=None, logger=None):
 
     if full:
         L, eff_full = make_log()
-    else:  # the layout needs the first readings and controller signals: built at the first control instant
+        # the log's column table and the sensors' layout are known now: constants of the module (hybrid: the
+        # layout is known at the first control instant, so the loop reads them from its arguments)
+        spec_cols = tuple(tuple(int(v) for v in r) for r in layout.LC)
+        spec_sens = tuple((tuple(int(c) for c in sens_cols[j, :sens["k"][j]]), int(sens["off"][j]), int(sens["aux"][j]))
+                          for j in range(ns))
+    else:
+        spec_cols = spec_sens = None  # the layout needs the first readings and controller signals: built at the first control instant
         L = np.zeros((0, n, 0))
         eff_full = []
         for args, pi in zip(eff_args, eff_pi):
@@ -927,15 +963,21 @@ def run_steps(sim, mode: str, progress=None, logger=None):
     has_tire_eff = any(e.target == "tire" for e, _ in sim.effects)
     if has_tire_eff and not P.has_tire:  # pragma: no cover - refused when the Simulation is built
         raise RuntimeError("tire effect without a tire")
+    # the loop's switches (SPEC_FLAGS): constants of the module, and passed to it as the same values
+    flags = (sim.maneuver is not None, bool(P.road_dof), bool(sim.rk4), bool(sim.trap), bool(P.has_tire),
+             bool(sim.effects), bool(has_tire_eff))
+    has_man, road_dof, rk4, trap, has_tire, has_effects, has_tire_effects = flags
+    mod = load_module(effects, actuator, controller, sensor_code, (nc, len(P.body_joints)),
+                      (flags, spec_cols, spec_sens))
     fixed = (m._address, d._address, d.qpos, d.qvel, d.ctrl, d.ten_length, d.ten_velocity, warn, warn_idx,
              _i64(P.road_q if P.road_dof else dummy), _i64(P.road_v if P.road_dof else dummy),
              _i64(P.road_servo if P.road_dof else dummy), _i64(P.susp_t), tire_t, _i64(P.eff_s), eff_t,
              _i64(P.act), _i64(P.wheel_q), _i64(P.wheel_v), _i64(P.body_q), _i64(P.body_v),
-             _i64(P.free_q), _i64(P.free_v), bool(P.has_tire), bool(sim.effects), bool(has_tire_eff), kt, ct, Jb,
-             bool(P.road_dof), m.tendon_lengthspring, _f64(P.tire_rest0 if not P.road_dof else np.zeros((n, nc, 2))),
+             _i64(P.free_q), _i64(P.free_v), has_tire, has_effects, has_tire_effects, kt, ct, Jb,
+             road_dof, m.tendon_lengthspring, _f64(P.tire_rest0 if not P.road_dof else np.zeros((n, nc, 2))),
              _f64(P.tire_ct if not P.road_dof else np.zeros((n, nc))),
-             bool(sim.rk4), d.qfrc_applied, d.qacc, float(P.road_mass),
-             bool(sim.trap), _f64(0.5 * P.susp_c), _f64(0.5 * P.tire_c), sim.v_prev, sim.maneuver is not None,
+             rk4, d.qfrc_applied, d.qacc, float(P.road_mass),
+             trap, _f64(0.5 * P.susp_c), _f64(0.5 * P.tire_c), sim.v_prev, has_man,
              *_maneuver_joints(sim), sim.acc_dofs, sim.v_ctrl, sim.acc_mean, float(sim.acc_period))
 
     def call(road_z, road_zd, road_zdd, k_chunk0, k, k1, resume):
