@@ -42,7 +42,8 @@ def _road(rng, kind, duration, **kw):
     if kind == "bumps":
         bg = bt.iso_road(rng, kw.get("bg", "A"), kw["speed"]) if kw.get("bg") else None
         return bt.Bumps(rng, duration, kw["speed"], h_range=kw.get("h", (0.02, 0.05)),
-                        L_range=kw.get("L", (0.4, 2.5)), gap_range=kw.get("gaps", (8.0, 25.0)), background=bg)
+                        L_range=kw.get("L", (0.4, 2.5)), gap_range=kw.get("gaps", (8.0, 25.0)), background=bg,
+                        pothole_share=kw.get("potholes", 0.3))
     if kind == "sweep":
         return bt.Sweep(kw.get("f0", 0.5), kw.get("f1", 20.0), duration, kw["amp"], kw.get("p", 0.5))
     if kind == "steps":  # kerb steps up and down, on an optional ISO background
@@ -225,6 +226,14 @@ RECORDS = {
     # sensor-gain rule (h) was made on): the travel sensor reads 5 % high on a van with asymmetric damping ---
     "asym_van_travel_scale": dict(veh="van", road=("iso", dict(cls="D", speed=18)), hidden={"asym": dict(ratio=(2.0, 3.0))},
                                   noise=(0.02, "white"), scale={"susp_travel": 1.05}),
+    # --- rare events where the default held-out part (the last 30 %) holds none (split.py: the split by events):
+    # potholes on an otherwise smooth road under an SUV with friction, and a null record with one large bump ---
+    "stops_suv_rare_potholes": dict(veh="suv", road=("bumps", dict(speed=12, bg="A", h=(0.05, 0.07), gaps=(41.5, 45.5),
+                                                                  potholes=1.0)),
+                                    hidden={"stops": dict(q=(0.985, 0.995), sides="both"),
+                                            "coulomb": dict(rel=(0.15, 0.25))}, noise=(0.02, "white")),
+    "null_van_one_bump": dict(veh="van", road=("bumps", dict(speed=12, bg="A", h=(0.07, 0.09), gaps=(200.0, 300.0))),
+                              hidden={}, noise=(0.02, "white")),
     "digressive_van_iso": dict(veh="van", road=("iso", dict(cls="D", speed=20)),
                                hidden={"digressive": dict(knee=(0.8, 1.2), ratio=(0.25, 0.4))}, noise=(0.02, "white")),
     # --- digr: a digressive damper whose valves differ (bump knee lower and softer than rebound's), on bumps and

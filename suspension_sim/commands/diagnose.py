@@ -59,7 +59,8 @@ def register(app: typer.Typer) -> None:
         out: Path = typer.Option(..., "--out", "-o", help="output folder"),
         map_: Optional[List[str]] = typer.Option(None, "--map", help="rename/scale a column: SRC=NAME or SRC=NAME*scale"),
         fs: Optional[float] = typer.Option(None, "--fs", help="sample rate in Hz when there is no time column"),
-        split: float = typer.Option(0.7, "--split", help="training fraction of the record (the rest is held out)"),
+        split: float = typer.Option(0.7, "--split", help="training fraction of the record (the rest is held out: "
+                                    "its end, or its start when only that holds the record's rare events)"),
         test: Optional[List[Path]] = typer.Option(None, "--test", help="held-out record file(s) (replaces --split)"),
         rows: Optional[str] = typer.Option(None, "--rows", help="use only rows a:b of DATA (0-based)"),
         test_rows: Optional[str] = typer.Option(None, "--test-rows", help="rows a:b of DATA (or of --test) held out"),

@@ -272,7 +272,10 @@ def build_report(D: Diagnosis, out: Path, confirm: bool = True, plots: bool = Tr
         "model_before": {"free": D.nominal.params, "ci95": D.nominal.ci95},
         "calibration": {"fitted": D.final.params, "ci95": D.final.ci95, "std": D.final.std},
         "split": {"train_samples": list(D.train), "test_samples": list(D.test),
-                  "test_record": D.test_prob.rec.source if D.test_prob is not None else None},
+                  "test_record": D.test_prob.rec.source if D.test_prob is not None else None,
+                  # split.py: the held-out part moved to the record's start to hold its rare events
+                  "by_events": bool(D.split and D.split["by_events"]),
+                  **({"reason": D.split["reason"]} if D.split and D.split["by_events"] else {})},
         "candidates": [t.as_dict() for t in D.trials],
         "locate": {
             "windows": {"t_start": loc_w["t_start"], "flagged": loc_w["flagged"], "rms": loc_w["rms"]},
@@ -427,7 +430,8 @@ def make_plots(D, out, s_nom, s_fin, st_nom, st_fin, loc_s, loc_s_after, fmap, f
         r = np.array(loc_w["rms"][c]) / max(D.floors[c]["value"], 1e-30)
         ax.step(loc_w["t_start"], r, where="post", label=c)
     ax.axhline(3, color="k", ls=":", label="3 × noise floor")
-    ax.axvline(D.record.t[min(D.train[1], len(D.record) - 1)], color="gray", ls="--", label="train | test")
+    cut, lab = (D.train[1], "train | test") if D.train[0] == 0 else (D.train[0], "test | train")
+    ax.axvline(D.record.t[min(cut, len(D.record) - 1)], color="gray", ls="--", label=lab)
     ax.set_yscale("log")
     ax.set_ylabel("residual RMS / noise floor")
     ax.set_xlabel("time [s]")

@@ -392,6 +392,7 @@ class Diagnosis:
     # offsets (rule (g), the joint explanation), with the offsets
     own_equilibrium: dict | None = None
     sensor_gain: dict | None = None  # the output channels' gains, when the sensor-gain rule (h) adopted them
+    split: dict | None = None  # how the record was split (split.choose: by events or the default end piece)
 
     def sims(self, fitres: FitResult):
         """(train/whole-record simulation, test simulation) of a fit, with its fitted channel offsets."""
@@ -413,19 +414,20 @@ class Diagnosis:
 
 
 
-def _scales(prob: Problem, spec: ModelSpec, P: dict, b: int) -> Scales:
+def _scales(prob: Problem, spec: ModelSpec, P: dict, b: int, a: int = 0) -> Scales:
     """RMS travel, rate and linear suspension force of the nominal simulation (pooled over corners), and the
-    largest travel overall, in compression and in extension."""
+    largest travel overall, in compression and in extension, on the training part [a, b) (simulated from the
+    record's start: a held-out start piece, split.py, is not in the scales)."""
     kind = prob.kind
     if kind == "damper":
-        s = prob.inputs["disp"][:b]
-        v = prob.inputs["vel"][:b] if "vel" in prob.inputs else np.gradient(s, prob.dt)
+        s = prob.inputs["disp"][a:b]
+        v = prob.inputs["vel"][a:b] if "vel" in prob.inputs else np.gradient(s, prob.dt)
         k, c = P.get("spring_stiffness", 0.0), P.get("damping", 0.0)
     else:
         eng = prob.engine(spec)
-        out = eng.run([P], b, [(e.label, e.type, e.corners, e.fixed) for e in spec.effects])[0]
+        out = eng.run([P], b, [(e.label, e.type, e.corners, e.fixed) for e in spec.effects])[0][a:]
         if kind == "sdof":
-            base = prob.inputs.get("base", np.zeros(b))[:b]
+            base = prob.inputs.get("base", np.zeros(b))[a:b]
             s = out[:, eng.channels.index("pos")] - base
         else:
             s = np.concatenate([out[:, j] - out[:, j].mean() for j, c in enumerate(eng.channels)
@@ -471,6 +473,8 @@ class Selector:
     joint_zero = True  # rule (g)'s joint explanation: a sag-moving candidate also fitted with its own zero
     joint_model = True  # ... and any candidate joining a model with a mass the search freed (_joint_applies)
     joint_settles = True  # ... that moves where that model settles (_moves_rest; off: every joining candidate)
+    event_split = True  # the held-out part holds the record's rare events (split.py; off: always the last part)
+    split_info = None  # split.choose's finding (None: a separate test record, or event_split off)
     def __init__(self, rec: Record, spec: ModelSpec, split: float = 0.7, test_record: Record | None = None,
                  floors: dict | None = None, candidates: list[str] | None = None, max_effects: int = 3,
                  screen_samples: int = 8000, min_excess_drop: float = 0.10, z_min: float = 2.0,
@@ -493,6 +497,13 @@ class Selector:
             b = int(round(split * n))
             self.train, self.test = (0, b), (b, n)
             self.test_prob = None
+            if self.event_split:
+                # the held-out part must hold the record's rare events when it has any (split.py): the start
+                # piece is held out instead of the end when only it shares them with the training part
+                from .split import choose
+
+                self.split_info = choose(self.prob.Y, split)
+                self.train, self.test = self.split_info["train"], self.split_info["test"]
         if not self.prob.has_force:
             self.spec.free = [f for f in self.spec.free if not f.name.startswith("input.")]
             self.spec.P["input.offset"] = 0.0
@@ -1048,6 +1059,8 @@ class Selector:
         t0 = time.perf_counter()
         floors = self.floors()
         a, b = self.train
+        if self.split_info is not None and self.split_info["by_events"]:
+            self.log(self.split_info["reason"])
         self.log(f"calibrating the nominal model ({', '.join(self.spec.names()) or 'nothing free'}) on "
                  f"{b - a} training samples")
         bs = self.screen_end(a, b)
@@ -1061,7 +1074,7 @@ class Selector:
         floor_n = np.array([floors[c]["nrmse"] for c in self.prob.channels])
         current_spec = _with_fit(self.spec, nominal)
         current = nominal
-        sc = _scales(self.prob, current_spec, nominal.P, b)
+        sc = _scales(self.prob, current_spec, nominal.P, b, a)
         # screened candidates are judged against the current model fitted on the same window (like with like:
         # the whole-window model is better on held-out data than any refit on 8 000 samples, by more than a
         # second effect's gain on the Silverbox), and the chosen one again on the whole window (below)
@@ -1437,7 +1450,8 @@ class Selector:
             self.log("the positions appear measured from the car's own equilibrium (offsets " + ", ".join(
                 f"{c} {1e3 * o:+.2f} mm" for c, o in own["offsets"].items()) + ")")
         D = Diagnosis(self.rec, self.prob, self.test_prob, self.train, self.test, floors, nominal, current,
-                      flat_added, trials, sc, T, sensor_zero=sensor_zero, own_equilibrium=own)
+                      flat_added, trials, sc, T, sensor_zero=sensor_zero, own_equilibrium=own,
+                      split=self.split_info)
         if sensor_gain is not None:  # the gains of the final model (the search went on after rule (h))
             D.sensor_gain = {**sensor_gain, **self.gain_finding(current, a, b),
                              "floor_nrmse": {c: float(floors[c]["nrmse"]) for c in self.prob.channels}}
