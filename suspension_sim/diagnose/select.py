@@ -832,6 +832,25 @@ class Selector:
         spec_z.position_zero = "measured"
         return fit(self.prob, spec_z, a, bs, max_nfev=60)
 
+    def _against_rival(self, kept: list, held: list, bic_r: float, why: str, rival: str, tail: str):
+        """Hold each kept result in ``held`` against a rival explanation's training BIC ``bic_r`` (rules (g) and
+        (h)): one whose BIC is not lower is no longer kept (reason: ``why`` and the two BICs).  Returns (the kept
+        results left, [{candidate, bic}] of those the rival beat)."""
+        out, beaten = [], []
+        for r in kept:
+            tr = r[2]
+            mine = any(r is m for m in held)
+            if mine and bic_r <= tr.bic:
+                tr.kept = False
+                tr.reason = f"rejected: {why}, training BIC {bic_r:.1f} against {tr.bic:.1f})"
+                beaten.append({"candidate": tr.name, "bic": float(tr.bic)})
+                self.log(f"  {tr.name}: {tr.reason[len('rejected: '):]}")
+            else:
+                if mine:
+                    self.log(f"  {tr.name}: beats {rival}: training BIC {tr.bic:.1f} against {bic_r:.1f}{tail})")
+                out.append(r)
+        return out, beaten
+
     def _sensor_zero(self, kept: list, results: list, current_spec: ModelSpec, cur_screen: FitResult, e_cur,
                      floor_n, a: int, bs: int, b: int):
         """Rule (g) (module docstring): the rival explanation, the current model with a free offset on every
@@ -855,21 +874,10 @@ class Selector:
         self.log(f"  rule (g): the position sensors' zero (a free offset on {', '.join(freed)}) ΔBIC {trz.d_bic:.1f}  "
                  f"test NRMSE {trz.test_before:.4f} → {trz.test_after:.4f}  z {trz.z:.1f}  "
                  f"{'passes the gate' if trz.kept else trz.reason or 'fails the gate'}")
-        out, beaten = [], []
-        for r in kept:
-            tr = r[2]
-            if any(r is m for m in moving) and bic_z <= tr.bic:
-                tr.kept = False
-                tr.reason = (f"rejected: the position sensors' zero explains it better (rule (g): a free offset "
-                             f"on {', '.join(freed)} at the stated value, training BIC {bic_z:.1f} against "
-                             f"{tr.bic:.1f})")
-                beaten.append({"candidate": tr.name, "bic": float(tr.bic)})
-                self.log(f"  {tr.name}: {tr.reason[len('rejected: '):]}")
-            else:
-                if any(r is m for m in moving):
-                    self.log(f"  {tr.name}: beats the position sensors' zero (rule (g): training BIC {tr.bic:.1f} "
-                             f"against {bic_z:.1f} with a free offset on {', '.join(freed)})")
-                out.append(r)
+        out, beaten = self._against_rival(
+            kept, moving, bic_z, f"the position sensors' zero explains it better (rule (g): a free offset on "
+                                 f"{', '.join(freed)} at the stated value",
+            "the position sensors' zero (rule (g)", f" with a free offset on {', '.join(freed)}")
         for r in joint:  # joint fits that won over their plain fit but were not kept: the offsets did the work
             if not r[2].kept and bic_z <= r[2].bic and not any(bb["candidate"] == r[2].name for bb in beaten):
                 beaten.append({"candidate": r[2].name, "bic": float(r[2].bic)})
@@ -938,21 +946,9 @@ class Selector:
                  + ", ".join(f"{g:.4f}" for g in fs.gains) + f") ΔBIC {trg.d_bic:.1f}  test NRMSE "
                  f"{trg.test_before:.4f} → {trg.test_after:.4f}  z {trg.z:.1f}  "
                  f"{'passes the gate' if trg.kept else trg.reason or 'fails the gate'}")
-        out, beaten = [], []
-        for r in kept:
-            tr = r[2]
-            if any(r is m for m in freeing) and bic_g <= tr.bic:
-                tr.kept = False
-                tr.reason = (f"rejected: the sensors' gains explain it better (rule (h): a free gain on every "
-                             f"output channel, the parameter at its stated value, training BIC {bic_g:.1f} "
-                             f"against {tr.bic:.1f})")
-                beaten.append({"candidate": tr.name, "bic": float(tr.bic)})
-                self.log(f"  {tr.name}: {tr.reason[len('rejected: '):]}")
-            else:
-                if any(r is m for m in freeing):
-                    self.log(f"  {tr.name}: beats the sensors' gains (rule (h): training BIC {tr.bic:.1f} against "
-                             f"{bic_g:.1f})")
-                out.append(r)
+        out, beaten = self._against_rival(
+            kept, freeing, bic_g, "the sensors' gains explain it better (rule (h): a free gain on every output "
+                                  "channel, the parameter at its stated value", "the sensors' gains (rule (h)", "")
         if not trg.kept or not (beaten or remainder) or any(r[2].bic < bic_g for r in out):
             return out, None
         fr = fs
@@ -1347,36 +1343,30 @@ class Selector:
                     self.log("adopted free position-sensor offsets (rule (g)): " + ", ".join(
                         f"{c} {1e3 * o:+.2f} mm" for c, o in sensor_zero["offsets"].items()))
                     continue
-                gain = None
+                gain, chosen = None, None
                 if self.sensor_gain_rule:
                     kept, gain = self._sensor_gain(kept, current_spec, cur_screen, e_screen, floor_n, a, bs, b)
-                if gain is not None:
-                    # rule (h): the sensors' gains are adopted (no parameter named), and the search goes on
-                    spec_g, fs_g, fr_g, sensor_gain = gain
-                    current_spec, current, cur_screen, e_cur, e_screen, floor_n = adopt(spec_g, fr_g, fs_g)
-                    self.log("adopted free sensor gains (rule (h)): " + ", ".join(
-                        f"{c} {g:.4f} ± {sensor_gain['std'][c]:.4f}" for c, g in sensor_gain["gains"].items()))
-                    continue
-                chosen = None
-                for cands, spec_c, tr, fr in sorted(kept, key=lambda r: r[2].bic):
+                for cands, spec_c, tr, fr in (sorted(kept, key=lambda r: r[2].bic) if gain is None else []):
                     fs, fr = self._polish(spec_c, fr, a, bs, b)
                     if bs < b and not self._confirm(tr, fr, current, e_cur, floor_n, cands):
                         continue
                     chosen = (cands, spec_c, tr, fs, fr)
                     break
+                if (gain is None and chosen is None and self.sensor_gain_rule and not kept and not current_spec.gains
+                        and Ecur > self.near * fl):
+                    # rule (h) for the remainder: no effect or parameter is kept while the model is still above the
+                    # floor; the output channels' gains alone, by the same gates
+                    _, gain = self._sensor_gain([], current_spec, cur_screen, e_screen, floor_n, a, bs, b,
+                                                remainder=True)
+                if gain is not None:
+                    # rule (h): the sensors' gains are adopted (no parameter named), and the search goes on
+                    spec_g, fs_g, fr_g, sensor_gain = gain
+                    current_spec, current, cur_screen, e_cur, e_screen, floor_n = adopt(spec_g, fr_g, fs_g)
+                    self.log("adopted free sensor gains (rule (h)" + (")" if sensor_gain["beats"] else ", the remainder)")
+                             + ": " + ", ".join(f"{c} {g:.4f} ± {sensor_gain['std'][c]:.4f}"
+                                                for c, g in sensor_gain["gains"].items()))
+                    continue
                 if chosen is None:
-                    if (self.sensor_gain_rule and not kept and not current_spec.gains
-                            and Ecur > self.near * fl):
-                        # rule (h) for the remainder: no effect or parameter is kept while the model is still
-                        # above the floor; the output channels' gains alone, by the same gates
-                        _, gain = self._sensor_gain([], current_spec, cur_screen, e_screen, floor_n, a, bs, b,
-                                                    remainder=True)
-                        if gain is not None:
-                            spec_g, fs_g, fr_g, sensor_gain = gain
-                            current_spec, current, cur_screen, e_cur, e_screen, floor_n = adopt(spec_g, fr_g, fs_g)
-                            self.log("adopted free sensor gains for the remainder (rule (h)): " + ", ".join(
-                                f"{c} {g:.4f} ± {sensor_gain['std'][c]:.4f}" for c, g in sensor_gain["gains"].items()))
-                            continue
                     break
                 cands, spec_c, tr, fs, fr = chosen
                 added.append((cands, fr, tr))
