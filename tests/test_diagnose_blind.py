@@ -344,7 +344,8 @@ def test_blind_battery_records_are_named_exactly(name, tmp_path):
     (two_heavier_cubic_own: the own zero asked again when the spring joins the freed mass, select._joint_applies;
     before, a 5 / 42 mm stop stood in for the spring at 6.4× the floor), stops on a record its logger decimated
     from 2 kHz to 250 Hz, asymmetric damping under band-limited noise on the body accelerometer only, and a null
-    record whose body accelerometer reads 4 % high and travel sensor 3 % low (nothing named)."""
+    record whose body accelerometer reads 4 % high and travel sensor 3 % low (nothing named; its two gains
+    reported as a sensor finding, rule (h))."""
     import sys
     from pathlib import Path
 
@@ -355,6 +356,9 @@ def test_blind_battery_records_are_named_exactly(name, tmp_path):
     assert r["exact"], (r["named"], r["verdict"])
     if name != "null_sedan_scale":  # there the "true floor" (record less truth) holds the gain errors too
         assert r["after"] < 1.3 * r["floor_true"], (r["after"], r["floor_true"])
+    else:  # the gains, tried alone for the remainder (rule (h)), are the sensor finding: 1.04 and 0.97
+        assert "body_acc reads 4.0 % high" in r["verdict"] and "susp_travel reads 3.0 % low" in r["verdict"] \
+            and "wheel_acc reads" not in r["verdict"], r["verdict"]
 
 
 @pytest.mark.slow
