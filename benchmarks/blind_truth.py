@@ -418,13 +418,18 @@ def simulate(vehicle: dict, hidden: dict, road, force, duration: float, fs: floa
            "travel_static": float(x0[0] - x0[2]),
            "lift_share": float(np.mean(Ftot <= 0.0)) if lift else 0.0}
     if stops:
-        eng = np.zeros(len(s), bool)
-        if stops["gap_c"] is not None:
-            eng |= s < -stops["gap_c"]
-        if stops.get("gap_e") is not None:
-            eng |= s > stops["gap_e"]
-        out["stop_share"] = float(np.mean(eng))
+        out["stop_share"] = float(np.mean(stop_engaged(s, stops)))
     return out
+
+
+def stop_engaged(s, stops) -> np.ndarray:
+    """The samples of travel ``s`` beyond the stops {gap_c, gap_e} (None: no stop on that side)."""
+    eng = np.zeros(len(s), bool)
+    if stops["gap_c"] is not None:
+        eng |= s < -stops["gap_c"]
+    if stops.get("gap_e") is not None:
+        eng |= s > stops["gap_e"]
+    return eng
 
 
 def _static_equilibrium(fsusp, ms, mu, kt, F_t0):

@@ -179,15 +179,7 @@ def simulate(vehicle: dict, hidden: dict, road, speed: float, duration: float, f
     out["travel_static"] = {e: float(X0[0] - x_ax[e] * X0[2] - X0[4 + 2 * j]) for j, e in enumerate(AXLES)}
     out["true_vehicle"] = T
     out["delay"] = delay
-    st = hidden.get("stops")
-    if st:
-        eng = np.zeros(len(t_eval), bool)
-        for e in AXLES:
-            if on("stops", e):
-                s = out[f"susp_travel_{e}"]
-                if st["gap_c"] is not None:
-                    eng |= s < -st["gap_c"]
-                if st.get("gap_e") is not None:
-                    eng |= s > st["gap_e"]
-        out["stop_share"] = float(np.mean(eng))
+    if hidden.get("stops"):  # the share of samples with a stop engaged on either axle
+        eng = [bt.stop_engaged(out[f"susp_travel_{e}"], hidden["stops"]) for e in AXLES if on("stops", e)]
+        out["stop_share"] = float(np.mean(np.logical_or.reduce(eng)))
     return out
