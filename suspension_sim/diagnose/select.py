@@ -44,7 +44,8 @@ models.
    gains stay free, no parameter is named, the search goes on) and the verdict reports each channel whose gain
    is off 1 by more than 2 standard errors and its noise floor ("wheel_acc reads 3.9 % low").  When no candidate
    is kept while the model is still above ``near`` × the floor, the gains are also tried alone (the remainder
-   of a gain error no parameter stands in for), by the same gates.  Only where a road or base displacement is
+   of a gain error no parameter stands in for), by the same gates, and adopted only when they bring the model
+   within ``near`` × the floor (else they would stand in for model error).  Only where a road or base displacement is
    measured (:meth:`Selector.gains_identifiable`): driven by a force alone (a shaker rig, a damper rig), scaling
    every mass, stiffness and damping scales every output, and a gain is the scale of the free parameters.
 4. The kept candidate with the lowest BIC is added, and the search repeats (up to ``max_effects``).
@@ -949,6 +950,13 @@ class Selector:
         out, beaten = self._against_rival(
             kept, freeing, bic_g, "the sensors' gains explain it better (rule (h): a free gain on every output "
                                   "channel, the parameter at its stated value", "the sensors' gains (rule (h)", "")
+        fl = float(np.sqrt(np.mean(np.square(floor_n))))
+        if remainder and trg.kept and not trg.test_after <= self.near * fl:
+            # the gains alone are a sensor finding only when they explain the remainder (the model within ``near``
+            # of the floor); else they stand in for model error (a c.g. shift on the half car: 64× the floor)
+            self.log(f"  rule (h): the gains leave {trg.test_after / max(fl, 1e-12):.1f}× the floor: not a sensor "
+                     f"finding")
+            return out, None
         if not trg.kept or not (beaten or remainder) or any(r[2].bic < bic_g for r in out):
             return out, None
         fr = fs
