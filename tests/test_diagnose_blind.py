@@ -430,10 +430,12 @@ def test_a_digressive_damper_is_named_with_its_knees_and_ratios(name, tmp_path):
 @pytest.mark.parametrize("name", ["stops_sedan_rare_bumps", "stops_suv_rare_potholes"])
 def test_rare_events_are_judged_on_a_held_out_part_that_holds_one(name, tmp_path, monkeypatch):
     """A bump stop met only on two bumps (stops_sedan_rare_bumps: at 0.8 and 4.0 s of 8 s) or two potholes
-    (stops_suv_rare_potholes: an SUV with Coulomb friction besides) of an otherwise smooth road.  With the last
-    30 % held out (the old split) neither event is held out and nothing is named (on the potholes not even the
-    friction: "unexplained 6.8×"); split by events (split.py) the start piece is held out, holding the first
-    event, and every hidden effect is named with the held-out error near the noise.  Two runs of 2–4 min each per
+    (stops_suv_rare_potholes: an SUV with Coulomb friction besides) of an otherwise smooth road.  Split by events
+    (split.py) the start piece is held out, holding the first event, and every hidden effect is named with the
+    held-out error near the noise.  With the last 30 % held out (the old split) neither event is held out and
+    nothing is named on the bumps (the baseline); on the potholes the old split named nothing on main 062a0ef
+    ("unexplained 6.8×") but names the pair since main cb39a7e (0.0230 held out against 0.0212), so it is no
+    baseline there.  Two runs of 2–4 min each per
     record at load ~10–25."""
     import sys
     from pathlib import Path
@@ -448,6 +450,7 @@ def test_rare_events_are_judged_on_a_held_out_part_that_holds_one(name, tmp_path
     assert r["after"] < 1.3 * r["floor_true"], (r["after"], r["floor_true"])
     for k in ("gap_compression", "gap_extension"):
         assert abs(r["fitted"][f"bump_stop.{k}"] / r["truth"][f"bump_stop.{k}"] - 1) < 0.05
-    monkeypatch.setattr(Selector, "event_split", False)
-    r0 = bb.run_one(name, tmp_path / "old")
-    assert r0["named"] == [], (r0["named"], r0["verdict"])
+    if name == "stops_sedan_rare_bumps":
+        monkeypatch.setattr(Selector, "event_split", False)
+        r0 = bb.run_one(name, tmp_path / "old")
+        assert r0["named"] == [], (r0["named"], r0["verdict"])
