@@ -76,7 +76,9 @@ def test_actuator_power_is_the_numpy_law(n):
 
 
 class _NumpyStats(iso2631.WeightedStats):
-    def _reduce(self, aw):  # the numpy form the compiled pass replaced
+    def _reduce(self, aw, aw2=None):  # the numpy form the compiled pass replaced (two pieces: joined)
+        if aw2 is not None:
+            aw = np.concatenate([aw, aw2], axis=1)
         sq = aw * aw
         self.ss = self.ss + np.sum(sq, axis=1)
         m = np.max(np.abs(aw), axis=1)

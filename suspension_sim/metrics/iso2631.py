@@ -355,10 +355,11 @@ class WeightedStats:
     def take(self, aw: np.ndarray, last: bool = False) -> None:
         """One chunk of a_w; ``last``: the record's last one (reduced together with the one before)."""
         if self.pending is not None:
-            if last:
-                aw = np.concatenate([self.pending, aw], axis=1)
-            else:
-                self._reduce(self.pending)
+            if last:  # the two pieces reduced as one row each (read in turn, not joined into a copy)
+                self._reduce(self.pending, aw)
+                self.pending = None
+                return
+            self._reduce(self.pending)
             self.pending = None
         if last:
             if aw.shape[1]:
@@ -366,14 +367,16 @@ class WeightedStats:
         elif aw.shape[1]:
             self.pending = np.ascontiguousarray(aw)  # (not a strided view holding the upsampled signal)
 
-    def _reduce(self, aw: np.ndarray) -> None:
+    def _reduce(self, aw: np.ndarray, aw2: np.ndarray | None = None) -> None:
         # one compiled pass per car (_reduce_rows), the numbers of the numpy form:
         #   sq = aw²; ss += Σ sq; pk = max(pk, max |aw|); a4 = sq² (pow(a_w, 4) costs 60 times more; the two
         #   differ by an ulp or two) with the last chunk's a4 joined on, vdv4 += trapezoid(a4, dx = 1/fs);
         #   the running sum of sq carried sequentially from the last value (np.cumsum's numbers), and the
         #   largest window mean (c[k] − c[k − win]) / win over the windows ending in this chunk
+        #   (aw2: a second piece that follows aw, reduced as if the two were one row)
         aw = rows_of(aw)
-        n_cars, n = aw.shape
+        aw2 = aw[:, :0] if aw2 is None else rows_of(aw2)
+        n_cars, n = aw.shape[0], aw.shape[1] + aw2.shape[1]
         T = self.c_tail.shape[1]
         k0 = self.n_aw + 1  # global index of the chunk's first running-sum value
         g0 = k0 - T  # global index of the row's first value (the tail's)
@@ -384,7 +387,7 @@ class WeightedStats:
         tail = np.empty((n_cars, keep))
         has_prev = self.prev4 is not None
         prev4 = self.prev4[:, 0] if has_prev else np.zeros(n_cars)
-        _reduce_rows(aw, np.ascontiguousarray(self.c_tail), prev4, has_prev, 1.0 / self.fs, self.win if windows else 0,
+        _reduce_rows(aw, aw2, np.ascontiguousarray(self.c_tail), prev4, has_prev, 1.0 / self.fs, self.win if windows else 0,
                      a, b, out, tail)
         self.ss = self.ss + out[0]
         self.pk = out[1] if self.n_aw == 0 else np.maximum(self.pk, out[1])
@@ -460,13 +463,15 @@ class Iso2631(Accumulator):
 
 
 @numba.njit(cache=True, nogil=True)
-def _reduce_rows(aw, c_tail, prev4, has_prev, dx, win, a, b, out, tail):  # pragma: no cover - compiled
+def _reduce_rows(aw, aw2, c_tail, prev4, has_prev, dx, win, a, b, out, tail):  # pragma: no cover - compiled
     """WeightedStats._reduce of each car's row: out[0] = Σ aw², out[1] = max |aw|, out[2] = the trapezoid sum
     of aw⁴ = (aw²)² with the previous chunk's last aw⁴ (prev4) joined on, at spacing dx, out[3] = the last aw⁴,
     out[4] = the largest (c[k] − c[k − win]) / win for k in [a, b) of the running sum c = [c_tail, c_tail[-1] + Σ aw²
-    ...] (win = 0: none); ``tail`` gets c's last values.  numpy's and scipy's numbers (pairwise sums, the
+    ...] (win = 0: none); ``tail`` gets c's last values.  Each row is aw's followed by aw2's (two pieces of one
+    signal, read in turn).  numpy's and scipy's numbers (pairwise sums, the
     same operations in the same order)."""
-    n = aw.shape[1]
+    n1 = aw.shape[1]
+    n = n1 + aw2.shape[1]
     T = c_tail.shape[1]
     sq = np.empty(n)
     a4 = np.empty(n)
@@ -476,7 +481,7 @@ def _reduce_rows(aw, c_tail, prev4, has_prev, dx, win, a, b, out, tail):  # prag
     keep = tail.shape[1]
     for r in range(aw.shape[0]):
         for j in range(n):
-            v = aw[r, j]
+            v = aw[r, j] if j < n1 else aw2[r, j - n1]
             q = v * v
             sq[j] = q
             a4[j] = q * q
