@@ -26,6 +26,13 @@ _ENGINE_LOCK = threading.Lock()
 MAX_REFINE = 8  # an effect's law may ask for at most this many times finer physics steps (Problem.step)
 
 
+
+def line_gains(Sc: np.ndarray, Yc: np.ndarray, gmask: np.ndarray) -> np.ndarray:
+    """Per channel, the least-squares gain g of the (centred where the offset is free) simulated samples ``Sc``
+    against the measured ``Yc``: Σ Sc·Yc / Σ Sc² where ``gmask`` frees it (and the simulation moves), else 1."""
+    ss = np.sum(Sc * Sc, axis=0)
+    return np.where(gmask & (ss > 0), np.sum(Sc * Yc, axis=0) / np.where(ss > 0, ss, 1.0), 1.0)
+
 class Problem:
     """A record prepared for simulation: the inputs, the output channels, their weights, which channels get
     a free offset (eliminated in closed form: the mean residual over the fitted window), and one
@@ -214,8 +221,7 @@ class Problem:
         S, Y = sim[a:b], self.Y[a:b]
         ms, my = S.mean(axis=0), Y.mean(axis=0)
         Sc, Yc = np.where(mask, S - ms, S), np.where(mask, Y - my, Y)
-        ss = np.sum(Sc * Sc, axis=0)
-        g = np.where(gmask & (ss > 0), np.sum(Sc * Yc, axis=0) / np.where(ss > 0, ss, 1.0), 1.0)
+        g = line_gains(Sc, Yc, gmask)
         return g, np.where(mask, my - g * ms, 0.0)
 
     def nrmse(self, sim, a: int, b: int, offsets=None, gains=None) -> dict[str, float]:
@@ -302,9 +308,7 @@ def _residual_fn(prob: Problem, spec: ModelSpec, a: int, b: int, xs):
         if gmask.any():
             S = sim[a:b]
             Sc = np.where(mask, S - S.mean(axis=0), S)
-            ss = np.sum(Sc * Sc, axis=0)
-            g = np.where(gmask & (ss > 0), np.sum(Sc * Yc, axis=0) / np.where(ss > 0, ss, 1.0), 1.0)
-            return ((g * Sc - Yc) * w).ravel()
+            return ((line_gains(Sc, Yc, gmask) * Sc - Yc) * w).ravel()
         e = sim[a:b] - prob.Y[a:b]
         if mask.any():
             e = e - np.where(mask, e.mean(axis=0), 0.0)
