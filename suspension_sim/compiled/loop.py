@@ -269,10 +269,10 @@ def generate_source(effects, actuator, controller, sensors=(), shape=None, spec=
     sensor_block = "".join(_sensor_code(sc, f, simple, None if sens_layout is None else sens_layout[sc])
                            for sc, (f, simple) in enumerate(sensors)) + \
         "                for c in range(nc):\n                    cmd[i, c] = 0.0\n"
-    acc_pass = _acc_code(" " * 20, lc)
+    acc_pass = _acc_code(" " * 20)
 
     def acc_flush(ind):  # the last step's acceleration, before the loop returns
-        return (f"{ind}if acc_due:\n{ind}    for i in range(n):\n" + _acc_code(ind + " " * 8, lc)
+        return (f"{ind}if acc_due:\n{ind}    for i in range(n):\n" + _acc_code(ind + " " * 8)
                 + f"{ind}    acc_due = False\n")
 
     ctrl_block = ("                ctrl_kernel(t, row(y, i), row(c_p, c_pi[i]), row(c_st, i), row(cmd, i))\n" if controller is not None
@@ -546,12 +546,12 @@ def loop(m_addr, d_addr, qpos, qvel, ctrl, ten_len, ten_vel, warn, warn_idx,
         k += 1
 {acc_flush(" " * 4)}{unblock(4)}    return k1
 '''
-    if lc != "LC":
+    if lc != "LC":  # every table load of the body, the acceleration pass's included
         body = re.sub(r"\bLC\[", lc + "[", body)
     return "\n".join(imp) + "\n" + body
 
 
-def _acc_code(ind: str, lc: str = "LC") -> str:
+def _acc_code(ind: str) -> str:
     """The loop's lines for car i's acceleration of the last step, (qvel - v_before) / dt on its body and wheel
     dofs, and its log entries in row acc_jl when that step logged (acc_log)."""
     return (f"{ind}for b in range(nb):\n"
@@ -562,12 +562,12 @@ def _acc_code(ind: str, lc: str = "LC") -> str:
             f"{ind}if acc_log:\n"
             f"{ind}    Lr = row(row(L, acc_jl), i)\n"
             f"{ind}    for b in range(nb):\n"
-            f"{ind}        if {lc}[2, b] >= 0:\n"
-            f"{ind}            Lr[{lc}[2, b]] = acc[body_v[i, b]]\n"
+            f"{ind}        if LC[2, b] >= 0:\n"
+            f"{ind}            Lr[LC[2, b]] = acc[body_v[i, b]]\n"
             f"{ind}    if has_tire:\n"
             f"{ind}        for c in range(nc):\n"
-            f"{ind}            if {lc}[14, c] >= 0:\n"
-            f"{ind}                Lr[{lc}[14, c]] = acc[wheel_v[i, c]]\n")
+            f"{ind}            if LC[14, c] >= 0:\n"
+            f"{ind}                Lr[LC[14, c]] = acc[wheel_v[i, c]]\n")
 
 
 def inlined(kernel):
