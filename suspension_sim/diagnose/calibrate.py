@@ -270,8 +270,7 @@ class FitResult:
 
     def apply(self, sim: np.ndarray) -> np.ndarray:
         """A simulation as the sensors read it: times the fitted channel gains, plus the fitted offsets."""
-        g = 1.0 if self.gains is None else self.gains
-        return sim * g + (self.offsets if self.offsets is not None else 0.0)
+        return sensor_reading(self, sim)
 
     def correlation(self, a: str, b: str) -> float:
         """Correlation of two free parameters' estimates (Gauss–Newton covariance); nan when unknown."""
@@ -293,6 +292,13 @@ class FitResult:
 
     def aic(self) -> float:
         return self.n * np.log(max(self.cost, 1e-300)) + 2 * (len(self.x) + self.n_offsets + self.n_gains)
+
+
+def sensor_reading(fr, sim: np.ndarray) -> np.ndarray:
+    """Fit ``fr``'s simulation as its sensors read it: times its channel gains (none free: as simulated), plus its
+    offsets (none: 0).  Also for a stand-in result that carries only ``offsets`` (select.py's decision tests)."""
+    g = getattr(fr, "gains", None)
+    return (sim if g is None else sim * g) + (fr.offsets if fr.offsets is not None else 0.0)
 
 
 def _residual_fn(prob: Problem, spec: ModelSpec, a: int, b: int, xs):

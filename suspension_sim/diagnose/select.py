@@ -91,7 +91,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.signal import welch
 
-from .calibrate import FitResult, Problem, fit
+from .calibrate import FitResult, Problem, fit, sensor_reading
 from .candidates import Candidate, ParameterCandidate, Scales, library
 from .io import Record
 from .model import ModelSpec, is_position
@@ -397,8 +397,8 @@ class Diagnosis:
 
     def sims(self, fitres: FitResult):
         """(train/whole-record simulation, test simulation) of a fit, with its fitted channel offsets."""
-        s = _read(fitres, fitres.simulated(self.prob))
-        st = _read(fitres, fitres.simulated(self.test_prob)) if self.test_prob is not None else s
+        s = sensor_reading(fitres, fitres.simulated(self.prob))
+        st = sensor_reading(fitres, fitres.simulated(self.test_prob)) if self.test_prob is not None else s
         return s, st
 
     def nrmse(self, fitres: FitResult) -> dict:
@@ -446,13 +446,6 @@ def _scales(prob: Problem, spec: ModelSpec, P: dict, b: int, a: int = 0) -> Scal
     return Scales(float(np.sqrt(np.mean(s ** 2))) or 1e-6, s_max,
                   float(np.sqrt(np.mean(v ** 2))) or 1e-6, Fr or 1.0, k, c, prob.has_force, has_tire,
                   s_comp=max(float(np.max(-s)), 1e-3 * s_max), s_ext=max(float(np.max(s)), 1e-3 * s_max))
-
-
-def _read(fr, sim: np.ndarray) -> np.ndarray:
-    """A fit's simulation as its sensors read it (:meth:`.FitResult.apply`: times its channel gains, plus its
-    offsets); a fit without gains (or a stand-in with only ``offsets``) adds its offsets."""
-    g = getattr(fr, "gains", None)
-    return (sim if g is None else sim * g) + (fr.offsets if fr.offsets is not None else 0.0)
 
 
 def _with_fit(spec: ModelSpec, fr: FitResult) -> ModelSpec:
@@ -550,7 +543,7 @@ class Selector:
         if len(chans) < 2:
             return []
         a, b = self.train
-        sim = _read(fr, fr.simulated(self.prob))[a:b]
+        sim = sensor_reading(fr, fr.simulated(self.prob))[a:b]
         U = [u[a:b] for u in self.rec.inputs.values()]
         resid = sim - self.prob.Y[a:b]
         est = incoherent_noise(resid, np.column_stack(U) if U else None)
@@ -620,7 +613,7 @@ class Selector:
 
     def _test_errors(self, fr: FitResult):
         tp = self.test_prob or self.prob
-        sim = _read(fr, fr.simulated(tp))
+        sim = sensor_reading(fr, fr.simulated(tp))
         a, b = self.test
         a = max(a, tp.skip)
         return (sim[a:b] - tp.Y[a:b]) / tp.scale
@@ -814,7 +807,7 @@ class Selector:
 
         offs = self._offsets_of(fr)
         a = max(a, self.prob.skip)
-        sim = _read(fr, fr.simulated(self.prob))
+        sim = sensor_reading(fr, fr.simulated(self.prob))
         w = 0.0
         chans = self._position_channels()
         for c in chans:
@@ -903,7 +896,7 @@ class Selector:
 
         a = max(a, self.prob.skip)
         raw = fr.simulated(self.prob)[a:b]
-        res = _read(fr, fr.simulated(self.prob))[a:b] - self.prob.Y[a:b]
+        res = sensor_reading(fr, fr.simulated(self.prob))[a:b] - self.prob.Y[a:b]
         mask = self.prob.mask(fr.spec)
         out = {"gains": {}, "std": {}}
         for i, c in enumerate(self.prob.channels):
